@@ -1,0 +1,140 @@
+"""SQLAlchemy 2 ORM models of the ottag database (schema changes go through migrations/)."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+import numpy as np
+from numpy.typing import NDArray
+from sqlalchemy import (
+    Boolean,
+    DateTime,
+    Float,
+    ForeignKey,
+    Index,
+    Integer,
+    LargeBinary,
+    MetaData,
+    String,
+    UniqueConstraint,
+)
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+__all__ = [
+    "NAMING_CONVENTION",
+    "Base",
+    "Source",
+    "OrderType",
+    "Realization",
+    "coordinates_to_blobs",
+    "coordinates_from_blob",
+    "labelings_to_texts",
+]
+
+#: Every constraint and index gets a predictable name (needed by batch migrations on SQLite).
+NAMING_CONVENTION = {
+    "ix": "ix_%(table_name)s_%(column_0_N_name)s",
+    "uq": "uq_%(table_name)s_%(column_0_N_name)s",
+    "ck": "ck_%(table_name)s_%(constraint_name)s",
+    "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
+    "pk": "pk_%(table_name)s",
+}
+
+
+class Base(DeclarativeBase):
+    """Declarative base carrying the naming convention."""
+
+    metadata = MetaData(naming_convention=NAMING_CONVENTION)
+
+
+class Source(Base):
+    """An imported point-set file (or the bundled data set)."""
+
+    __tablename__ = "sources"
+    __table_args__ = (UniqueConstraint("sha256"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    file_name: Mapped[str] = mapped_column(String(512))
+    sha256: Mapped[str] = mapped_column(String(64))
+    n: Mapped[int] = mapped_column(Integer)
+    coordinate_bits: Mapped[int] = mapped_column(Integer)
+    records: Mapped[int] = mapped_column(Integer)
+    mirrors_included: Mapped[bool] = mapped_column(Boolean, default=False)
+    imported_at: Mapped[datetime] = mapped_column(DateTime)
+
+    realizations: Mapped[list[Realization]] = relationship(back_populates="source")
+
+
+class OrderType(Base):
+    """One order type, identified by its canonical λ-matrix (text form ``k:digits``)."""
+
+    __tablename__ = "order_types"
+    __table_args__ = (UniqueConstraint("k", "canonical_lambda"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    k: Mapped[int] = mapped_column(Integer)
+    canonical_lambda: Mapped[str] = mapped_column(String(110))
+    unique_min: Mapped[bool] = mapped_column(Boolean)
+    minimal_orderings: Mapped[int] = mapped_column(Integer)
+    hull_size: Mapped[int] = mapped_column(Integer)
+    mirror_lambda: Mapped[str] = mapped_column(String(110))
+    chiral: Mapped[bool] = mapped_column(Boolean)
+
+    realizations: Mapped[list[Realization]] = relationship(back_populates="order_type")
+
+
+class Realization(Base):
+    """A concrete point set of an order type: a record of a source file (maybe mirrored)."""
+
+    __tablename__ = "realizations"
+    __table_args__ = (
+        UniqueConstraint("source_id", "record_index", "mirrored"),
+        Index("ix_realizations_order_type_id_mp", "order_type_id", "mp"),
+    )
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    order_type_id: Mapped[int] = mapped_column(ForeignKey("order_types.id", ondelete="CASCADE"))
+    source_id: Mapped[int] = mapped_column(ForeignKey("sources.id", ondelete="CASCADE"))
+    record_index: Mapped[int] = mapped_column(Integer)
+    mirrored: Mapped[bool] = mapped_column(Boolean, default=False)
+    # (k, 2) little-endian uint16 x, y pairs in file order.
+    coordinates: Mapped[bytes] = mapped_column(LargeBinary)
+    mp: Mapped[float] = mapped_column(Float)
+    # One decimal digit per canonical label: digit l is the file index of label l.
+    canonical_labeling: Mapped[str] = mapped_column(String(10))
+
+    order_type: Mapped[OrderType] = relationship(back_populates="realizations")
+    source: Mapped[Source] = relationship(back_populates="realizations")
+
+    def points(self) -> NDArray[np.int64]:
+        """Coordinates as a ``(k, 2)`` int64 array in file order."""
+        return coordinates_from_blob(self.coordinates)
+
+    def labeling(self) -> tuple[int, ...]:
+        """Canonical labeling: ``labeling[l]`` is the file index of the point with label ``l``."""
+        return tuple(int(c) for c in self.canonical_labeling)
+
+    def canonical_points(self) -> NDArray[np.int64]:
+        """Coordinates in canonical label order (row ``l`` = point with label ``l``)."""
+        return self.points()[list(self.labeling())]
+
+
+def coordinates_to_blobs(points: NDArray[np.integer]) -> list[bytes]:
+    """``(B, k, 2)`` non-negative coordinates → one uint16 LE blob per set."""
+    arr = np.ascontiguousarray(np.asarray(points), dtype="<u2")
+    size = arr.shape[1] * 4
+    raw = arr.tobytes()
+    return [raw[i * size : (i + 1) * size] for i in range(arr.shape[0])]
+
+
+def coordinates_from_blob(blob: bytes) -> NDArray[np.int64]:
+    """One blob of the ``coordinates`` column → ``(k, 2)`` int64."""
+    return np.frombuffer(blob, dtype="<u2").reshape(-1, 2).astype(np.int64)
+
+
+def labelings_to_texts(labelings: NDArray[np.integer]) -> list[str]:
+    """``(B, k)`` labelings → digit strings for the ``canonical_labeling`` column."""
+    arr = np.asarray(labelings)
+    k = arr.shape[1]
+    raw = (arr.astype(np.uint8) + ord("0")).tobytes()
+    return [raw[i * k : (i + 1) * k].decode("ascii") for i in range(arr.shape[0])]
