@@ -298,7 +298,9 @@ def enumerate_order_types(max_k: int = 8, progress: Progress | None = None) -> d
                     fresh.append(text)
                 if old is None or q > old[1]:
                     found[text] = (pts, q)
-            # Close under reflection so that only representatives need to be extended.
+            # Close under reflection; the reflected sets need not be extended (their
+            # extensions are the reflections of the extensions of the originals).
+            direct = sorted(fresh)
             if fresh:
                 fresh_pts = np.stack([found[t][0] for t in fresh])
                 mirrored = mirror_points(fresh_pts)
@@ -310,10 +312,9 @@ def enumerate_order_types(max_k: int = 8, progress: Progress | None = None) -> d
                         fresh.append(text)
             if progress is not None:
                 progress(f"enumerate k={k} pass {passes}", 1, 1)
-            fresh_sorted = sorted(set(fresh))
-            if not fresh_sorted:
+            if not direct:
                 break
-            base = _subsets(np.stack([found[t][0] for t in fresh_sorted]))
+            base = _subsets(np.stack([found[t][0] for t in direct]))
         texts = sorted(found)
         pts_all = np.stack([found[t][0] for t in texts])
         mirrors = _mirror_texts(pts_all)

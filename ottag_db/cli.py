@@ -1,0 +1,348 @@
+"""The ``ottag-db`` command line: parses options, calls the library, prints results."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, TypeVar
+
+import click
+
+from . import __version__
+from .db import Database, head_revision, open_database
+from .errors import OttagError
+from .importer import ImportReport, import_point_file
+from .queries import (
+    MP_THRESHOLDS,
+    KStats,
+    OrderTypeSummary,
+    database_stats,
+    get_order_type,
+    identify_points,
+    list_order_types,
+    parse_points,
+)
+
+__all__ = ["cli", "main"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+#: Paper's Table 7 (|D^k| for v = 0.5 … 9.0), printed beside our counts.
+PAPER_TABLE7: dict[int, tuple[int, ...]] = {
+    8: (3315, 3296, 1240, 642, 371, 231, 135, 83, 56, 37, 26, 15, 10, 6, 5, 4, 3, 3),
+    7: (135, 135, 135, 135, 135, 86, 60, 47, 32, 26, 18, 15, 8, 7, 4, 3, 3, 3),
+    6: (16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 12, 10, 8, 6, 5),
+    5: (3,) * 18,
+}
+
+
+class _CliError(click.ClickException):
+    def __init__(self, message: str, exit_code: int):
+        super().__init__(message)
+        self.exit_code = exit_code
+
+
+class _Group(click.Group):
+    """Turns the library's typed errors into one-line messages with the right exit code."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except OttagError as exc:
+            raise _CliError(str(exc), exc.exit_code) from exc
+
+
+def _db_options(func: F) -> F:
+    func = click.option(
+        "--db",
+        "db_target",
+        envvar="OTTAG_DB",
+        default=None,
+        metavar="PATH|URL",
+        help="Database file or SQLAlchemy URL [env OTTAG_DB; default ./ottag.sqlite].",
+    )(func)
+    return func
+
+
+def _quiet_option(func: F) -> F:
+    return click.option("--quiet", "-q", is_flag=True, help="No progress bars or notes on stderr.")(func)
+
+
+def _note(msg: str, quiet: bool = False) -> None:
+    if not quiet:
+        click.echo(msg, err=True)
+
+
+@contextmanager
+def _database(target: str | None, quiet: bool = False) -> Iterator[Database]:
+    db = open_database(target)
+    if db.backup is not None:
+        _note(f"migrated {db.path} to revision {head_revision()} (backup: {db.backup})", quiet)
+    try:
+        yield db
+    finally:
+        db.close()
+
+
+class _Progress:
+    """A click progress bar on stderr driven by ``(done, total)`` callbacks."""
+
+    def __init__(self, label: str, quiet: bool):
+        self.label = label
+        self.quiet = quiet
+        self._bar: Any = None
+        self._done = 0
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.quiet:
+            return
+        if self._bar is None:
+            self._bar = click.progressbar(length=total, label=self.label, file=sys.stderr)
+            self._bar.__enter__()
+        self._bar.update(done - self._done)
+        self._done = done
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.__exit__(None, None, None)
+            self._bar = None
+            self._done = 0
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="ottag-db")
+def cli() -> None:
+    """Order Type Tags: order-type database, tag sheets and decoder.
+
+    IDs are printed in the text form k:digits (the canonical λ-matrix, row-major,
+    diagonal 0). Data goes to stdout, messages and progress to stderr.
+    """
+
+
+# ----------------------------------------------------------------------------- import
+@cli.command("import")
+@click.argument("files", nargs=-1, type=click.Path(path_type=Path))
+@click.option("--points", "n", type=click.IntRange(3, 10), default=None, help="Points per record (else from the name otypesNN).")
+@click.option("--with-mirrors/--no-mirrors", default=None, help="Also store the mirror image of every chiral record [default: on for bundled data, off for files].")
+@_db_options
+@_quiet_option
+def import_cmd(files: tuple[Path, ...], n: int | None, with_mirrors: bool | None, db_target: str | None, quiet: bool) -> None:
+    """Import point-set files (.b08/.b16) into the database; no FILE imports the bundled data.
+
+    Each file is one transaction: a failure leaves the database as it was. Importing a file
+    again is a no-op.
+    """
+    from .bundled import bundled_point_files
+
+    jobs: list[tuple[Path, int | None]] = [(p, n) for p in files]
+    mirrors = with_mirrors
+    if not jobs:
+        jobs = [(p, k) for p, k in bundled_point_files()]
+        mirrors = True if with_mirrors is None else with_mirrors
+    with _database(db_target, quiet) as db:
+        reports: list[ImportReport] = []
+        for p, points in jobs:
+            bar = _Progress(f"importing {p.name}", quiet)
+            try:
+                reports.append(import_point_file(db, p, n=points, with_mirrors=bool(mirrors), progress=bar))
+            finally:
+                bar.close()
+            r = reports[-1]
+            if r.skipped:
+                click.echo(f"{p.name}: already imported (sha256 matches), nothing to do")
+            else:
+                click.echo(
+                    f"{p.name}: {r.records} records read, {r.new_order_types} new order types, "
+                    f"{r.new_realizations} new realizations ({r.seconds:.2f} s)"
+                )
+        if len(reports) > 1:
+            click.echo(
+                f"total: {sum(r.records for r in reports)} records read, "
+                f"{sum(r.new_order_types for r in reports)} new order types, "
+                f"{sum(r.new_realizations for r in reports)} new realizations"
+            )
+        _note(f"database: {db.path or db.url}", quiet)
+
+
+# ----------------------------------------------------------------------------- stats
+def _stats_json(stats: list[KStats]) -> dict[str, Any]:
+    return {
+        str(s.k): {
+            "order_types": s.order_types,
+            "unique_min": s.unique_min,
+            "chiral": s.chiral,
+            "mp_at_least": {f"{v:.1f}": c for v, c in s.mp_at_least.items()},
+        }
+        for s in stats
+    }
+
+
+@cli.command("stats")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output (see README).")
+@_db_options
+@_quiet_option
+def stats_cmd(as_json: bool, db_target: str | None, quiet: bool) -> None:
+    """Order types per k (Table 2), unique minimum (Table 3) and MP ≥ v counts (Table 7)."""
+    with _database(db_target, quiet) as db:
+        stats = database_stats(db)
+    if as_json:
+        click.echo(json.dumps(_stats_json(stats), indent=2))
+        return
+    if not stats:
+        _note("the database holds no order types yet: run `ottag-db import`")
+        return
+    click.echo("k  order types  unique min (E^k)  chiral")
+    for s in stats:
+        click.echo(f"{s.k:<2} {s.order_types:>11}  {s.unique_min:>16}  {s.chiral:>6}")
+    click.echo("")
+    click.echo("Order types whose best realization has MP >= v (grid units); (paper) = Table 7")
+    header = "v    " + "".join(f"{'|D^' + str(s.k) + '|':>8}" for s in stats)
+    paper_ks = [s.k for s in stats if s.k in PAPER_TABLE7]
+    header += "".join(f"{'paper' + str(k):>8}" for k in paper_ks)
+    click.echo(header)
+    for i, v in enumerate(MP_THRESHOLDS):
+        line = f"{v:<4.1f} " + "".join(f"{s.mp_at_least[v]:>8}" for s in stats)
+        line += "".join(f"{PAPER_TABLE7[k][i]:>8}" for k in paper_ks)
+        click.echo(line)
+
+
+# ----------------------------------------------------------------------------- show
+def _matrix_lines(mat: Any) -> list[str]:
+    k = mat.shape[0]
+    return [" ".join("-" if i == j else str(int(mat[i, j])) for j in range(k)) for i in range(k)]
+
+
+@cli.command("show")
+@click.argument("ident")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output.")
+@_db_options
+@_quiet_option
+def show_cmd(ident: str, as_json: bool, db_target: str | None, quiet: bool) -> None:
+    """Show one order type by canonical ID (k:digits) or database id."""
+    with _database(db_target, quiet) as db:
+        detail = get_order_type(db, ident)
+    s = detail.summary
+    if as_json:
+        out = s.as_json()
+        out["lambda_matrix"] = detail.lambda_matrix.tolist()
+        out["mirror_id"] = detail.mirror_id
+        out["all_realizations"] = [
+            {"id": r.id, "source": r.source, "record": r.record_index, "mirrored": r.mirrored, "points": r.points,
+             "mp": r.mp, "labeling": list(r.labeling)}
+            for r in detail.realizations
+        ]
+        click.echo(json.dumps(out, indent=2))
+        return
+    click.echo(f"id          {s.id}")
+    click.echo(f"lambda      {s.lambda_text}")
+    click.echo(f"k           {s.k}")
+    click.echo(f"hull size   {s.hull_size}")
+    click.echo(f"unique min  {'yes (usable for point matching)' if s.unique_min else 'no'} ({s.minimal_orderings} minimal ordering(s))")
+    mirror = "itself (achiral)" if not s.chiral else f"{s.mirror}" + (f" (id {detail.mirror_id})" if detail.mirror_id else " (not in the database)")
+    click.echo(f"mirror      {mirror}")
+    click.echo(f"MP          {s.mp:.3f} grid units (best of {s.realizations} realization(s))")
+    best = detail.realizations[0]
+    click.echo(f"points      {' '.join(f'{x},{y}' for x, y in best.points)}  [{best.source} record {best.record_index}{' mirrored' if best.mirrored else ''}]")
+    click.echo(f"labeling    {' '.join(str(v) for v in best.labeling)}  (file index of canonical label 0, 1, ...)")
+    click.echo("λ-matrix")
+    for line in _matrix_lines(detail.lambda_matrix):
+        click.echo("  " + line)
+
+
+# ----------------------------------------------------------------------------- id
+@cli.command("id")
+@click.argument("points")
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output (see README).")
+@_db_options
+@_quiet_option
+def id_cmd(points: str, as_json: bool, db_target: str | None, quiet: bool) -> None:
+    """Canonical ID of an ad-hoc point set "x,y x,y ..." and whether the database has it."""
+    pts = parse_points(points)
+    with _database(db_target, quiet) as db:
+        res = identify_points(db, pts)
+    if as_json:
+        click.echo(json.dumps(res.as_json()))
+        return
+    click.echo(f"lambda      {res.lambda_text}")
+    click.echo(f"k           {res.k}")
+    click.echo(f"unique min  {'yes' if res.unique_min else 'no'} ({res.minimal_orderings} minimal ordering(s))")
+    click.echo(f"hull size   {res.hull_size}")
+    click.echo(f"MP          {res.mp:.3f}")
+    click.echo(f"labeling    {' '.join(str(v) for v in res.labeling)}")
+    click.echo(f"in database {'yes, id ' + str(res.id) if res.in_database else 'no'}")
+
+
+# ----------------------------------------------------------------------------- list
+def _write_list(rows: list[OrderTypeSummary], fmt: str) -> None:
+    if fmt == "json":
+        click.echo(json.dumps([r.as_json() for r in rows], indent=None))
+        return
+    if fmt == "csv":
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["id", "k", "lambda", "mp", "points", "hull_size", "unique_min", "chiral", "mirror"])
+        for r in rows:
+            pts = " ".join(f"{x},{y}" for x, y in r.points)
+            w.writerow([r.id, r.k, r.lambda_text, f"{r.mp:.6f}", pts, r.hull_size, int(r.unique_min), int(r.chiral), r.mirror])
+        click.echo(buf.getvalue(), nl=False)
+        return
+    click.echo(f"{'id':>6} {'k':>2} {'MP':>7} {'hull':>4} {'uniq':>4} {'chir':>4}  lambda")
+    for r in rows:
+        click.echo(
+            f"{r.id:>6} {r.k:>2} {r.mp:>7.3f} {r.hull_size:>4} {'yes' if r.unique_min else 'no':>4} "
+            f"{'yes' if r.chiral else 'no':>4}  {r.lambda_text}"
+        )
+
+
+@cli.command("list")
+@click.option("--k", "ks", type=click.IntRange(3, 10), multiple=True, help="Only these point counts (repeatable).")
+@click.option("--min-mp", type=click.FloatRange(min=0), default=None, help="Only MP >= V (grid units, as Table 7).")
+@click.option("--matchable", is_flag=True, help="Only order types with a unique minimal ordering (E^k).")
+@click.option("--format", "fmt", type=click.Choice(["table", "csv", "json"]), default="table", show_default=True)
+@_db_options
+@_quiet_option
+def list_cmd(ks: tuple[int, ...], min_mp: float | None, matchable: bool, fmt: str, db_target: str | None, quiet: bool) -> None:
+    """List order types with their best realization."""
+    with _database(db_target, quiet) as db:
+        rows = list_order_types(db, ks=ks, min_mp=min_mp, matchable=matchable)
+    _write_list(rows, fmt)
+    _note(f"{len(rows)} order type(s)", quiet)
+
+
+# ----------------------------------------------------------------------------- db
+@cli.group("db", cls=_Group)
+def db_group() -> None:
+    """Schema migrations (applied automatically whenever a command opens a database)."""
+
+
+@db_group.command("current")
+@_db_options
+def db_current(db_target: str | None) -> None:
+    """Print the database's schema revision and the newest one this tool knows."""
+    db = open_database(db_target, migrate=False)
+    try:
+        cur = db.current_revision()
+    finally:
+        db.close()
+    click.echo(f"current: {cur or '(empty)'}")
+    click.echo(f"head:    {head_revision()}")
+
+
+@db_group.command("upgrade")
+@_db_options
+@_quiet_option
+def db_upgrade(db_target: str | None, quiet: bool) -> None:
+    """Migrate the database to the newest schema (backing up an older file first)."""
+    with _database(db_target, quiet) as db:
+        click.echo(f"at revision {db.current_revision()}")
+
+
+def main() -> None:
+    """Console-script entry point."""
+    cli(prog_name="ottag-db")
+
