@@ -10,7 +10,7 @@ from typing import Any
 from .errors import PointFileError
 from .resources import data_dir
 
-__all__ = ["bundled_point_files", "bundled_manifest"]
+__all__ = ["bundled_manifest", "bundled_point_files"]
 
 _NAME = re.compile(r"^ottag-k(\d{2})\.b(08|16)$")
 
@@ -25,9 +25,7 @@ def bundled_point_files() -> list[tuple[Path, int]]:
             if m:
                 found.append((p, int(m.group(1))))
     if not found:
-        raise PointFileError(
-            f"no bundled point-set files in {folder}; reinstall ottag-db or name files to import"
-        )
+        raise PointFileError(f"no bundled point-set files in {folder}; reinstall ottag-db or name files to import")
     return sorted(found, key=lambda item: item[1])
 
 

@@ -8,19 +8,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import LambdaFormatError
-from .geometry import as_point_batch, hull_sizes, lambda_matrices
+from .geometry import as_point_batch, lambda_matrices
 
 __all__ = [
     "CanonicalBatch",
     "CanonicalForm",
-    "canonicalize_lambdas",
     "canonical_batch",
     "canonical_form",
     "canonical_lambda",
     "canonical_orderings",
-    "mirror_lambdas",
+    "canonicalize_lambdas",
     "lambda_text",
     "lambda_texts",
+    "mirror_lambdas",
     "parse_lambda_text",
     "relabel_lambda",
 ]
@@ -181,7 +181,7 @@ def mirror_lambdas(lam: NDArray[np.integer]) -> NDArray[np.int8]:
     """λ-matrices of the mirror images: left and right swap, so λ' = n − 2 − λ off the diagonal."""
     lam = np.asarray(lam)
     n = lam.shape[-1]
-    out = (n - 2 - lam).astype(np.int8)
+    out: NDArray[np.int8] = (n - 2 - lam).astype(np.int8)
     idx = np.arange(n)
     out[..., idx, idx] = 0
     return out

@@ -42,9 +42,16 @@ PAPER_TABLE7: dict[int, tuple[int, ...]] = {
 
 
 class _CliError(click.ClickException):
-    def __init__(self, message: str, exit_code: int):
-        super().__init__(message)
-        self.exit_code = exit_code
+    """A library error shown as ``error: message`` on stderr, exit code 1."""
+
+    def show(self, file: Any = None) -> None:
+        click.echo(f"error: {self.format_message()}", err=True)
+
+
+class _CliUsageError(_CliError):
+    """A bad option value caught by the library: exit code 2 like click's own usage errors."""
+
+    exit_code = 2
 
 
 class _Group(click.Group):
@@ -54,7 +61,9 @@ class _Group(click.Group):
         try:
             return super().invoke(ctx)
         except OttagError as exc:
-            raise _CliError(str(exc), exc.exit_code) from exc
+            if exc.exit_code == 2:
+                raise _CliUsageError(str(exc)) from exc
+            raise _CliError(str(exc)) from exc
 
 
 def _db_options(func: F) -> F:
@@ -127,11 +136,19 @@ def cli() -> None:
 # ----------------------------------------------------------------------------- import
 @cli.command("import")
 @click.argument("files", nargs=-1, type=click.Path(path_type=Path))
-@click.option("--points", "n", type=click.IntRange(3, 10), default=None, help="Points per record (else from the name otypesNN).")
-@click.option("--with-mirrors/--no-mirrors", default=None, help="Also store the mirror image of every chiral record [default: on for bundled data, off for files].")
+@click.option(
+    "--points", "n", type=click.IntRange(3, 10), default=None, help="Points per record (else from the name otypesNN)."
+)
+@click.option(
+    "--with-mirrors/--no-mirrors",
+    default=None,
+    help="Also store the mirror image of every chiral record [default: on for bundled data, off for files].",
+)
 @_db_options
 @_quiet_option
-def import_cmd(files: tuple[Path, ...], n: int | None, with_mirrors: bool | None, db_target: str | None, quiet: bool) -> None:
+def import_cmd(
+    files: tuple[Path, ...], n: int | None, with_mirrors: bool | None, db_target: str | None, quiet: bool
+) -> None:
     """Import point-set files (.b08/.b16) into the database; no FILE imports the bundled data.
 
     Each file is one transaction: a failure leaves the database as it was. Importing a file
@@ -232,8 +249,15 @@ def show_cmd(ident: str, as_json: bool, db_target: str | None, quiet: bool) -> N
         out["lambda_matrix"] = detail.lambda_matrix.tolist()
         out["mirror_id"] = detail.mirror_id
         out["all_realizations"] = [
-            {"id": r.id, "source": r.source, "record": r.record_index, "mirrored": r.mirrored, "points": r.points,
-             "mp": r.mp, "labeling": list(r.labeling)}
+            {
+                "id": r.id,
+                "source": r.source,
+                "record": r.record_index,
+                "mirrored": r.mirrored,
+                "points": r.points,
+                "mp": r.mp,
+                "labeling": list(r.labeling),
+            }
             for r in detail.realizations
         ]
         click.echo(json.dumps(out, indent=2))
@@ -242,12 +266,18 @@ def show_cmd(ident: str, as_json: bool, db_target: str | None, quiet: bool) -> N
     click.echo(f"lambda      {s.lambda_text}")
     click.echo(f"k           {s.k}")
     click.echo(f"hull size   {s.hull_size}")
-    click.echo(f"unique min  {'yes (usable for point matching)' if s.unique_min else 'no'} ({s.minimal_orderings} minimal ordering(s))")
-    mirror = "itself (achiral)" if not s.chiral else f"{s.mirror}" + (f" (id {detail.mirror_id})" if detail.mirror_id else " (not in the database)")
+    matching = "yes (usable for point matching)" if s.unique_min else "no"
+    click.echo(f"unique min  {matching} ({s.minimal_orderings} minimal ordering(s))")
+    mirror = (
+        "itself (achiral)"
+        if not s.chiral
+        else f"{s.mirror}" + (f" (id {detail.mirror_id})" if detail.mirror_id else " (not in the database)")
+    )
     click.echo(f"mirror      {mirror}")
     click.echo(f"MP          {s.mp:.3f} grid units (best of {s.realizations} realization(s))")
     best = detail.realizations[0]
-    click.echo(f"points      {' '.join(f'{x},{y}' for x, y in best.points)}  [{best.source} record {best.record_index}{' mirrored' if best.mirrored else ''}]")
+    origin = f"{best.source} record {best.record_index}{' mirrored' if best.mirrored else ''}"
+    click.echo(f"points      {' '.join(f'{x},{y}' for x, y in best.points)}  [{origin}]")
     click.echo(f"labeling    {' '.join(str(v) for v in best.labeling)}  (file index of canonical label 0, 1, ...)")
     click.echo("λ-matrix")
     for line in _matrix_lines(detail.lambda_matrix):
@@ -288,7 +318,9 @@ def _write_list(rows: list[OrderTypeSummary], fmt: str) -> None:
         w.writerow(["id", "k", "lambda", "mp", "points", "hull_size", "unique_min", "chiral", "mirror"])
         for r in rows:
             pts = " ".join(f"{x},{y}" for x, y in r.points)
-            w.writerow([r.id, r.k, r.lambda_text, f"{r.mp:.6f}", pts, r.hull_size, int(r.unique_min), int(r.chiral), r.mirror])
+            w.writerow(
+                [r.id, r.k, r.lambda_text, f"{r.mp:.6f}", pts, r.hull_size, int(r.unique_min), int(r.chiral), r.mirror]
+            )
         click.echo(buf.getvalue(), nl=False)
         return
     click.echo(f"{'id':>6} {'k':>2} {'MP':>7} {'hull':>4} {'uniq':>4} {'chir':>4}  lambda")
@@ -306,7 +338,9 @@ def _write_list(rows: list[OrderTypeSummary], fmt: str) -> None:
 @click.option("--format", "fmt", type=click.Choice(["table", "csv", "json"]), default="table", show_default=True)
 @_db_options
 @_quiet_option
-def list_cmd(ks: tuple[int, ...], min_mp: float | None, matchable: bool, fmt: str, db_target: str | None, quiet: bool) -> None:
+def list_cmd(
+    ks: tuple[int, ...], min_mp: float | None, matchable: bool, fmt: str, db_target: str | None, quiet: bool
+) -> None:
     """List order types with their best realization."""
     with _database(db_target, quiet) as db:
         rows = list_order_types(db, ks=ks, min_mp=min_mp, matchable=matchable)
@@ -345,4 +379,3 @@ def db_upgrade(db_target: str | None, quiet: bool) -> None:
 def main() -> None:
     """Console-script entry point."""
     cli(prog_name="ottag-db")
-

@@ -26,9 +26,9 @@ from .resources import migrations_dir
 __all__ = [
     "DEFAULT_DB_PATH",
     "Database",
+    "head_revision",
     "open_database",
     "resolve_database_url",
-    "head_revision",
     "upgrade",
 ]
 
@@ -211,4 +211,3 @@ def upgrade(db: Database, revision: str = "head") -> None:
 def _run_upgrade(cfg: Config, conn: Connection, revision: str) -> None:
     cfg.attributes["connection"] = conn
     command.upgrade(cfg, revision)
-

@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 __all__ = [
-    "OttagError",
-    "GeneralPositionError",
-    "PointFileError",
     "DatabaseError",
-    "LambdaFormatError",
-    "NotFoundError",
-    "UsageError",
-    "ExportError",
     "DecodeError",
     "DictionaryError",
+    "ExportError",
+    "GeneralPositionError",
+    "LambdaFormatError",
+    "NotFoundError",
+    "OttagError",
+    "PointFileError",
+    "UsageError",
 ]
 
 

@@ -9,15 +9,15 @@ from .errors import GeneralPositionError
 
 __all__ = [
     "as_point_batch",
-    "orientation_tensor",
-    "lambda_matrices",
-    "lambda_matrix",
-    "hull_sizes",
-    "hull_size",
-    "maximal_perturbation",
-    "maximal_perturbations",
     "check_general_position",
     "general_position_mask",
+    "hull_size",
+    "hull_sizes",
+    "lambda_matrices",
+    "lambda_matrix",
+    "maximal_perturbation",
+    "maximal_perturbations",
+    "orientation_tensor",
 ]
 
 
@@ -82,7 +82,8 @@ def lambda_matrix(points: ArrayLike) -> NDArray[np.int8]:
     pts = np.asarray(points)
     if pts.ndim != 2:
         raise ValueError("lambda_matrix takes one point set of shape (n, 2)")
-    return lambda_matrices(pts[None])[0]
+    single: NDArray[np.int8] = lambda_matrices(pts[None])[0]
+    return single
 
 
 def hull_sizes(lam: NDArray[np.integer]) -> NDArray[np.int64]:
@@ -93,7 +94,8 @@ def hull_sizes(lam: NDArray[np.integer]) -> NDArray[np.int64]:
     """
     n = lam.shape[-1]
     on_hull = (lam == n - 2).any(axis=2)
-    return on_hull.sum(axis=1).astype(np.int64)
+    counts: NDArray[np.int64] = on_hull.sum(axis=1).astype(np.int64)
+    return counts
 
 
 def hull_size(points: ArrayLike) -> int:
@@ -120,8 +122,10 @@ def maximal_perturbations(points: ArrayLike) -> NDArray[np.float64]:
     with np.errstate(divide="ignore", invalid="ignore"):
         dist = d / lengths[:, :, :, None]
     idx = np.arange(n)
-    invalid = (idx[:, None, None] == idx[None, :, None]) | (idx[:, None, None] == idx[None, None, :]) | (
-        idx[None, :, None] == idx[None, None, :]
+    invalid = (
+        (idx[:, None, None] == idx[None, :, None])
+        | (idx[:, None, None] == idx[None, None, :])
+        | (idx[None, :, None] == idx[None, None, :])
     )
     dist[:, invalid] = np.inf
     result: NDArray[np.float64] = 0.5 * dist.reshape(dist.shape[0], -1).min(axis=1)
@@ -142,7 +146,7 @@ def general_position_mask(points: ArrayLike, *, tolerance: float = 0.0) -> NDArr
     n = pts.shape[1]
     d = np.abs(orientation_tensor(pts))
     a, b, c = _triples(n)
-    ok: NDArray[np.bool_] = (d[:, a, b, c] > tolerance).all(axis=1)
+    ok: NDArray[np.bool_] = np.asarray((d[:, a, b, c] > tolerance).all(axis=1), dtype=bool)
     return ok
 
 
@@ -171,8 +175,7 @@ def check_general_position(points: ArrayLike, *, record_offset: int = 0) -> None
         for j in range(i + 1, n):
             if (s[i] == s[j]).all():
                 raise GeneralPositionError(
-                    f"record {b + record_offset}: points {i} and {j} are the same point "
-                    f"{_fmt(s[i])}",
+                    f"record {b + record_offset}: points {i} and {j} are the same point {_fmt(s[i])}",
                     record=b + record_offset,
                     points=(i, j),
                 )

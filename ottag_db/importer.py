@@ -8,6 +8,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,7 +22,7 @@ from .geometry import check_general_position, general_position_mask, lambda_matr
 from .models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
 from .pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
 
-__all__ = ["ImportReport", "import_point_file", "import_point_files", "ProgressCallback"]
+__all__ = ["ImportReport", "ProgressCallback", "import_point_file", "import_point_files"]
 
 #: ``progress(done, total)`` in records; called after every chunk.
 ProgressCallback = Callable[[int, int], None]
@@ -104,15 +105,13 @@ def _upsert_order_types(conn: Connection, k: int, data: _ChunkData) -> dict[str,
                 "mirror_lambda": data.mirror_texts[i],
                 "chiral": data.mirror_texts[i] != text,
             }
+    # Another file may have created some of these order types already: skip duplicates.
     dialect = conn.dialect.name
-    table = OrderType.__table__
-    stmt = (
-        sqlite.insert(table).on_conflict_do_nothing()
-        if dialect == "sqlite"
-        else postgresql.insert(table).on_conflict_do_nothing()
-        if dialect == "postgresql"
-        else None
-    )
+    stmt: Any = insert(OrderType)
+    if dialect == "sqlite":
+        stmt = sqlite.insert(OrderType).on_conflict_do_nothing()
+    elif dialect == "postgresql":
+        stmt = postgresql.insert(OrderType).on_conflict_do_nothing()
     keys = list(rows)
     ids: dict[str, int] = {}
     for s in range(0, len(keys), _IN_BATCH):
@@ -125,7 +124,7 @@ def _upsert_order_types(conn: Connection, k: int, data: _ChunkData) -> dict[str,
         ids.update({t: i for t, i in found})
         missing = [rows[t] for t in part if t not in ids]
         if missing:
-            conn.execute(stmt if stmt is not None else insert(table), missing)
+            conn.execute(stmt, missing)
             found = conn.execute(
                 select(OrderType.canonical_lambda, OrderType.id).where(
                     OrderType.k == k, OrderType.canonical_lambda.in_([m["canonical_lambda"] for m in missing])
@@ -160,7 +159,7 @@ def _insert_realizations(
         for i in idx
     ]
     if rows:
-        conn.execute(insert(Realization.__table__), rows)
+        conn.execute(insert(Realization), rows)
     return len(rows)
 
 
@@ -194,7 +193,7 @@ def import_point_file(
         before = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()
         only_mirrors = src is not None
         if src is None:
-            source_id = conn.execute(
+            inserted = conn.execute(
                 insert(Source).values(
                     file_name=name,
                     sha256=digest,
@@ -204,7 +203,9 @@ def import_point_file(
                     mirrors_included=with_mirrors,
                     imported_at=datetime.now(),
                 )
-            ).inserted_primary_key[0]
+            ).inserted_primary_key
+            assert inserted is not None
+            source_id = inserted[0]
         else:
             source_id = src.id
             conn.execute(update(Source).where(Source.id == source_id).values(mirrors_included=True))
@@ -212,8 +213,9 @@ def import_point_file(
         try:
             added = _import_chunks(conn, info, int(source_id), with_mirrors, only_mirrors, max_coordinate, progress)
         except GeneralPositionError as exc:
+            record = exc.record if exc.record is not None else 0
             raise PointFileError(
-                f"{name}: record {exc.record} (byte offset {exc.record * info.record_size if exc.record is not None else '?'}): "
+                f"{name}: record {record} (byte offset {record * info.record_size}): "
                 f"{str(exc).split(': ', 1)[-1]}; every point set must be in general position — fix or drop that record"
             ) from exc
         after = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()

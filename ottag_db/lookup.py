@@ -9,7 +9,7 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LookupEntry", "TagLookup", "MemoryLookup"]
+__all__ = ["LookupEntry", "MemoryLookup", "TagLookup"]
 
 
 @dataclass(frozen=True)

@@ -23,11 +23,11 @@ from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 __all__ = [
     "NAMING_CONVENTION",
     "Base",
-    "Source",
     "OrderType",
     "Realization",
-    "coordinates_to_blobs",
+    "Source",
     "coordinates_from_blob",
+    "coordinates_to_blobs",
     "labelings_to_texts",
 ]
 

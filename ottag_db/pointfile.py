@@ -8,6 +8,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,11 +18,11 @@ from .errors import PointFileError
 __all__ = [
     "OFFICIAL_RECORD_COUNTS",
     "PointFileInfo",
+    "file_sha256",
     "inspect_point_file",
     "iter_point_chunks",
     "read_point_file",
     "write_point_file",
-    "file_sha256",
 ]
 
 #: Record counts of the official files ``otypesNN.b08|b16`` for n = 3 … 10.
@@ -37,7 +38,7 @@ OFFICIAL_RECORD_COUNTS: dict[int, int] = {
 }
 
 _OFFICIAL_NAME = re.compile(r"^otypes(\d{2})\.b(08|16)$")
-_DTYPES = {8: np.dtype("<u1"), 16: np.dtype("<u2")}
+_DTYPES: dict[int, np.dtype[Any]] = {8: np.dtype("<u1"), 16: np.dtype("<u2")}
 
 
 @dataclass(frozen=True)
@@ -56,7 +57,7 @@ class PointFileInfo:
         return self.n * 2 * (self.bits // 8)
 
     @property
-    def dtype(self) -> np.dtype[np.unsignedinteger]:
+    def dtype(self) -> np.dtype[Any]:
         """numpy dtype of one coordinate."""
         return _DTYPES[self.bits]
 
@@ -88,9 +89,7 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
     name_n = int(match.group(1)) if match else None
     if n is None:
         if name_n is None:
-            raise PointFileError(
-                f"{p}: cannot tell the number of points per record from the name; pass --points N"
-            )
+            raise PointFileError(f"{p}: cannot tell the number of points per record from the name; pass --points N")
         n = name_n
     elif name_n is not None and name_n != n:
         raise PointFileError(f"{p}: the name says {name_n} points per record but --points is {n}")
@@ -115,9 +114,7 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
     return PointFileInfo(path=p, n=n, bits=bits, records=records, official=official)
 
 
-def iter_point_chunks(
-    info: PointFileInfo, chunk_records: int = 65536
-) -> Iterator[tuple[int, NDArray[np.int64]]]:
+def iter_point_chunks(info: PointFileInfo, chunk_records: int = 65536) -> Iterator[tuple[int, NDArray[np.int64]]]:
     """Yield ``(first_record_index, points)`` with ``points`` a ``(B, n, 2)`` int64 array.
 
     Reads ``chunk_records`` records at a time, so memory stays bounded for any file size.

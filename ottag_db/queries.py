@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from sqlalchemy import Select, func, select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from .canonical import canonical_form, lambda_text, parse_lambda_text
@@ -18,15 +19,15 @@ from .models import OrderType, Realization, coordinates_from_blob
 
 __all__ = [
     "MP_THRESHOLDS",
-    "KStats",
-    "OrderTypeSummary",
-    "OrderTypeDetail",
-    "RealizationInfo",
     "IdResult",
+    "KStats",
+    "OrderTypeDetail",
+    "OrderTypeSummary",
+    "RealizationInfo",
     "database_stats",
-    "list_order_types",
     "get_order_type",
     "identify_points",
+    "list_order_types",
     "parse_points",
 ]
 
@@ -133,10 +134,10 @@ class IdResult:
         }
 
 
-def _best_mp() -> Select[tuple[int, float, int]]:
-    return select(
-        Realization.order_type_id, func.max(Realization.mp).label("mp"), func.count().label("n")
-    ).group_by(Realization.order_type_id)
+def _best_mp() -> Any:
+    return select(Realization.order_type_id, func.max(Realization.mp).label("mp"), func.count().label("n")).group_by(
+        Realization.order_type_id
+    )
 
 
 def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) -> list[KStats]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from importlib import resources
 from pathlib import Path
 
-__all__ = ["migrations_dir", "data_dir"]
+__all__ = ["data_dir", "migrations_dir"]
 
 _CHECKOUT_ROOT = Path(__file__).resolve().parent.parent
 

@@ -1,0 +1,1 @@
+"""ottag-db test suite (mirrors the package modules)."""
