@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -55,6 +57,59 @@ def orientation_tensor(points: ArrayLike) -> NDArray[np.float64]:
     return d
 
 
+def _upper_orientations(pts: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
+    """``D[b, q, p]`` for the pairs ``q = (i, j)``, ``i < j`` (from ``np.triu_indices``)."""
+    n = pts.shape[1]
+    x = pts[..., 0]
+    y = pts[..., 1]
+    m = x[:, :, None] * y[:, None, :] - y[:, :, None] * x[:, None, :]
+    first, second = np.triu_indices(n, 1)
+    # D[i,j,p] = M[i,j] + M[j,p] − M[i,p]  (M is antisymmetric)
+    d: NDArray[np.float64] = m[:, first, second][:, :, None] + (m[:, second, :] - m[:, first, :])
+    return d, first, second
+
+
+def _lambda_from_upper(d: NDArray[np.float64], first: NDArray[np.intp], second: NDArray[np.intp], n: int) -> NDArray[np.int8]:
+    upper = (d < 0).sum(axis=2, dtype=np.int8)
+    lam = np.zeros((d.shape[0], n, n), dtype=np.int8)
+    lam[:, first, second] = upper
+    lam[:, second, first] = (n - 2) - upper
+    return lam
+
+
+@dataclass(frozen=True)
+class PointSetAnalysis:
+    """One pass over a batch: λ-matrices, general-position flags and MP (see the functions)."""
+
+    lambdas: NDArray[np.int8]
+    general_position: NDArray[np.bool_]
+    mp: NDArray[np.float64]
+
+
+def analyse_point_sets(points: ArrayLike) -> PointSetAnalysis:
+    """λ-matrices, general-position mask and MP of a ``(B, n, 2)`` batch from one orientation pass.
+
+    Cheaper than calling :func:`lambda_matrices`, :func:`general_position_mask` and
+    :func:`maximal_perturbations` separately (the importer's hot path). λ is only
+    meaningful where ``general_position`` is True.
+    """
+    pts, _ = as_point_batch(points)
+    n = pts.shape[1]
+    d, first, second = _upper_orientations(pts)
+    lam = _lambda_from_upper(d, first, second, n)
+    ad = np.abs(d)
+    # Every triple (i < j, p ∉ {i, j}) appears here; D = 0 for p ∈ {i, j} is masked.
+    idx = np.arange(n)
+    own = (idx[None, :] == first[:, None]) | (idx[None, :] == second[:, None])
+    ad[:, own] = np.inf
+    diff = pts[:, first, :] - pts[:, second, :]
+    lengths = np.sqrt((diff * diff).sum(axis=2))
+    ok = (ad.min(axis=(1, 2)) > 0) & (lengths.min(axis=1) > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mp = 0.5 * (ad.min(axis=2) / lengths).min(axis=1)
+    return PointSetAnalysis(lambdas=lam, general_position=np.asarray(ok, dtype=bool), mp=np.where(ok, mp, 0.0))
+
+
 def lambda_matrices(points: ArrayLike) -> NDArray[np.int8]:
     """λ-matrices ``L[b, i, j]`` = number of points left of ``p_i → p_j`` (diagonal 0).
 
@@ -63,18 +118,8 @@ def lambda_matrices(points: ArrayLike) -> NDArray[np.int8]:
     position ``L[j, i] = n − 2 − L[i, j]``.
     """
     pts, _ = as_point_batch(points)
-    b, n, _ = pts.shape
-    x = pts[..., 0]
-    y = pts[..., 1]
-    m = x[:, :, None] * y[:, None, :] - y[:, :, None] * x[:, None, :]
-    first, second = np.triu_indices(n, 1)
-    # D[i,j,p] = M[i,j] + M[j,p] − M[i,p]  (M is antisymmetric)
-    d = m[:, first, second][:, :, None] + (m[:, second, :] - m[:, first, :])
-    upper = (d < 0).sum(axis=2, dtype=np.int8)
-    lam = np.zeros((b, n, n), dtype=np.int8)
-    lam[:, first, second] = upper
-    lam[:, second, first] = (n - 2) - upper
-    return lam
+    d, first, second = _upper_orientations(pts)
+    return _lambda_from_upper(d, first, second, pts.shape[1])
 
 
 def lambda_matrix(points: ArrayLike) -> NDArray[np.int8]:

@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from sqlalchemy import Connection, func, insert, select, update
-from sqlalchemy.dialects import postgresql, sqlite
+from sqlalchemy.dialects import postgresql
 
 from .canonical import canonicalize_lambdas, mirror_lambdas
 from .db import Database
 from .errors import GeneralPositionError, PointFileError
-from .geometry import check_general_position, general_position_mask, lambda_matrices, maximal_perturbations
+from .geometry import analyse_point_sets, check_general_position
 from .models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
 from .pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
 
@@ -27,8 +27,8 @@ __all__ = ["ImportReport", "ProgressCallback", "import_point_file", "import_poin
 #: ``progress(done, total)`` in records; called after every chunk.
 ProgressCallback = Callable[[int, int], None]
 
-# Records per chunk: an n = 10 chunk needs about 8192 × 450 float64 of orientations (30 MB).
-_CHUNK_RECORDS = 8192
+# Records per chunk: an n = 10 chunk needs about 16384 × 450 float64 of orientations (60 MB).
+_CHUNK_RECORDS = 16384
 _IN_BATCH = 5000
 
 
@@ -69,8 +69,12 @@ class _ChunkData:
         )
 
 
-def _analyse(points: NDArray[np.int64]) -> _ChunkData:
-    lam = lambda_matrices(points)
+def _analyse(points: NDArray[np.int64], first: int) -> _ChunkData:
+    analysis = analyse_point_sets(points)
+    if not analysis.general_position.all():
+        bad = int(np.flatnonzero(~analysis.general_position)[0])
+        check_general_position(points[bad : bad + 1], record_offset=first + bad)
+    lam = analysis.lambdas
     batch = canonicalize_lambdas(lam)
     # Reflection swaps left and right: the mirror's λ follows from λ without new geometry,
     # and the reflected set keeps the point indices, so its labeling comes out directly.
@@ -82,7 +86,7 @@ def _analyse(points: NDArray[np.int64]) -> _ChunkData:
         hulls=batch.hull_sizes,
         labelings=labelings_to_texts(batch.labelings),
         mirror_labelings=labelings_to_texts(mirror.labelings),
-        mp=maximal_perturbations(points),
+        mp=analysis.mp,
     )
 
 
@@ -92,45 +96,49 @@ def _reflect(points: NDArray[np.int64], max_coordinate: int) -> NDArray[np.int64
     return out
 
 
+_OT_COLUMNS = ("k", "canonical_lambda", "unique_min", "minimal_orderings", "hull_size", "mirror_lambda", "chiral")
+_R_COLUMNS = ("order_type_id", "source_id", "record_index", "mirrored", "coordinates", "mp", "canonical_labeling")
+
+
 def _upsert_order_types(conn: Connection, k: int, data: _ChunkData) -> dict[str, int]:
-    rows: dict[str, dict[str, object]] = {}
+    """Insert the chunk's new order types (others may exist from earlier files) and map ID → row id."""
+    rows: dict[str, tuple[object, ...]] = {}
     for i, text in enumerate(data.texts):
         if text not in rows:
-            rows[text] = {
-                "k": k,
-                "canonical_lambda": text,
-                "unique_min": bool(data.minimal[i] == 1),
-                "minimal_orderings": int(data.minimal[i]),
-                "hull_size": int(data.hulls[i]),
-                "mirror_lambda": data.mirror_texts[i],
-                "chiral": data.mirror_texts[i] != text,
-            }
-    # Another file may have created some of these order types already: skip duplicates.
-    dialect = conn.dialect.name
-    stmt: Any = insert(OrderType)
-    if dialect == "sqlite":
-        stmt = sqlite.insert(OrderType).on_conflict_do_nothing()
-    elif dialect == "postgresql":
-        stmt = postgresql.insert(OrderType).on_conflict_do_nothing()
+            mirror = data.mirror_texts[i]
+            rows[text] = (k, text, bool(data.minimal[i] == 1), int(data.minimal[i]), int(data.hulls[i]), mirror, mirror != text)
     keys = list(rows)
     ids: dict[str, int] = {}
+    if conn.dialect.name == "sqlite":
+        # SQLite fast path: one INSERT OR IGNORE and one join through a temporary key table.
+        cols = ", ".join(_OT_COLUMNS)
+        conn.exec_driver_sql(
+            f"INSERT OR IGNORE INTO order_types ({cols}) VALUES ({', '.join('?' * len(_OT_COLUMNS))})",
+            list(rows.values()),
+        )
+        conn.exec_driver_sql("CREATE TEMP TABLE IF NOT EXISTS ottag_chunk_keys (lam TEXT PRIMARY KEY)")
+        conn.exec_driver_sql("DELETE FROM ottag_chunk_keys")
+        conn.exec_driver_sql("INSERT INTO ottag_chunk_keys (lam) VALUES (?)", [(t,) for t in keys])
+        found = conn.exec_driver_sql(
+            "SELECT o.canonical_lambda, o.id FROM ottag_chunk_keys c "
+            "JOIN order_types o ON o.k = ? AND o.canonical_lambda = c.lam",
+            (k,),
+        ).all()
+        ids.update({t: int(i) for t, i in found})
+        return ids
+    stmt: Any = insert(OrderType)
+    if conn.dialect.name == "postgresql":
+        stmt = postgresql.insert(OrderType).on_conflict_do_nothing()
     for s in range(0, len(keys), _IN_BATCH):
         part = keys[s : s + _IN_BATCH]
-        found = conn.execute(
-            select(OrderType.canonical_lambda, OrderType.id).where(
-                OrderType.k == k, OrderType.canonical_lambda.in_(part)
-            )
-        ).all()
-        ids.update({t: i for t, i in found})
-        missing = [rows[t] for t in part if t not in ids]
+        query = select(OrderType.canonical_lambda, OrderType.id).where(
+            OrderType.k == k, OrderType.canonical_lambda.in_(part)
+        )
+        ids.update({t: i for t, i in conn.execute(query).all()})
+        missing = [dict(zip(_OT_COLUMNS, rows[t], strict=True)) for t in part if t not in ids]
         if missing:
             conn.execute(stmt, missing)
-            found = conn.execute(
-                select(OrderType.canonical_lambda, OrderType.id).where(
-                    OrderType.k == k, OrderType.canonical_lambda.in_([m["canonical_lambda"] for m in missing])
-                )
-            ).all()
-            ids.update({t: i for t, i in found})
+            ids.update({t: i for t, i in conn.execute(query).all()})
     return ids
 
 
@@ -145,21 +153,19 @@ def _insert_realizations(
     keep: NDArray[np.bool_] | None = None,
 ) -> int:
     blobs = coordinates_to_blobs(points)
-    idx = np.arange(points.shape[0]) if keep is None else np.flatnonzero(keep)
+    idx = range(points.shape[0]) if keep is None else np.flatnonzero(keep).tolist()
+    mp = data.mp.tolist()
     rows = [
-        {
-            "order_type_id": ids[data.texts[i]],
-            "source_id": source_id,
-            "record_index": first + int(i),
-            "mirrored": mirrored,
-            "coordinates": blobs[i],
-            "mp": float(data.mp[i]),
-            "canonical_labeling": data.labelings[i],
-        }
-        for i in idx
+        (ids[data.texts[i]], source_id, first + i, mirrored, blobs[i], mp[i], data.labelings[i]) for i in idx
     ]
-    if rows:
-        conn.execute(insert(Realization), rows)
+    if not rows:
+        return 0
+    if conn.dialect.name == "sqlite":
+        conn.exec_driver_sql(
+            f"INSERT INTO realizations ({', '.join(_R_COLUMNS)}) VALUES ({', '.join('?' * len(_R_COLUMNS))})", rows
+        )
+    else:
+        conn.execute(insert(Realization), [dict(zip(_R_COLUMNS, r, strict=True)) for r in rows])
     return len(rows)
 
 
@@ -236,9 +242,7 @@ def _import_chunks(
     added = 0
     done = 0
     for first, points in iter_point_chunks(info, _CHUNK_RECORDS):
-        if not general_position_mask(points).all():
-            check_general_position(points, record_offset=first)
-        data = _analyse(points)
+        data = _analyse(points, first)
         if not only_mirrors:
             ids = _upsert_order_types(conn, info.n, data)
             added += _insert_realizations(conn, source_id, first, points, data, ids, mirrored=False)
