@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from itertools import combinations
 
 import numpy as np
@@ -15,15 +15,15 @@ from .errors import ExportError
 from .geometry import as_point_batch, check_general_position, orientation_tensor
 
 __all__ = [
-    "LAYOUT_MIN_K",
     "LAYOUT_MAX_K",
+    "LAYOUT_MIN_K",
+    "SCORE_REFERENCES",
     "Layout",
-    "layout_supported",
     "compute_layout",
     "compute_layouts",
     "layout_quality",
+    "layout_supported",
     "validate_layout",
-    "SCORE_REFERENCES",
 ]
 
 #: Smallest and largest number of points a layout is computed for (k = 4 is refused, see below).
@@ -97,9 +97,7 @@ def _check_k(k: int) -> None:
     if k == 4:
         raise ExportError(_K4_MESSAGE)
     if not LAYOUT_MIN_K <= k <= LAYOUT_MAX_K:
-        raise ExportError(
-            f"tag layouts are computed for 3 ≤ k ≤ {LAYOUT_MAX_K} points (k ≠ 4); got k = {k}"
-        )
+        raise ExportError(f"tag layouts are computed for 3 ≤ k ≤ {LAYOUT_MAX_K} points (k ≠ 4); got k = {k}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -114,7 +112,7 @@ class _Tables:
     tri_edges: NDArray[np.intp]  # (T, 3) edge ids of each triangle
 
 
-@lru_cache(maxsize=None)
+@cache
 def _tables(k: int) -> _Tables:
     tris = np.array(list(combinations(range(k), 3)), dtype=np.intp)
     edges = np.array(list(combinations(range(k), 2)), dtype=np.intp)
@@ -135,7 +133,7 @@ class _Covers:
     pair_shared: NDArray[np.intp]  # (P,) shared vertex or -1 when vertex-disjoint
 
 
-@lru_cache(maxsize=None)
+@cache
 def _covers(k: int, m: int) -> _Covers:
     """All sets of ``m`` triangles covering ``0 … k-1`` in which no two share two vertices."""
     tb = _tables(k)
@@ -241,9 +239,7 @@ class _SetGeometry:
         dist = np.sqrt((diff**2).sum(axis=3))  # (B, k, k)
         self.diameter = dist.reshape(b, -1).max(axis=1)
         self.tri_side = np.minimum(np.minimum(dist[:, a, bb], dist[:, bb, c]), dist[:, a, c])  # (B, T)
-        self.tri_angle = np.minimum(
-            np.minimum(self._angle(a, bb, c), self._angle(bb, c, a)), self._angle(c, a, bb)
-        )
+        self.tri_angle = np.minimum(np.minimum(self._angle(a, bb, c), self._angle(bb, c, a)), self._angle(c, a, bb))
         # point-to-segment distances (B, k, E)
         p = pts[:, :, None, :]
         s0 = pts[:, ea][:, None]
@@ -323,11 +319,7 @@ def _figures_for(
 def _make_layout(
     tris: NDArray[np.intp], angle: float, side: float, gap: float, shared: float, diameter: float
 ) -> Layout:
-    score = float(
-        _score(
-            np.array(angle), np.array(side / diameter), np.array(gap / diameter), np.array(shared)
-        )
-    )
+    score = float(_score(np.array(angle), np.array(side / diameter), np.array(gap / diameter), np.array(shared)))
     triangles = tuple(sorted(tuple(sorted(int(i) for i in t)) for t in tris))
     return Layout(
         triangles=triangles,  # type: ignore[arg-type]
@@ -376,9 +368,7 @@ def _solve_more(pts: NDArray[np.float64], m_start: int) -> list[Layout]:
     return [r for r in result if r is not None]
 
 
-def compute_layouts(
-    points_batch: ArrayLike, progress: ProgressFn | None = None, *, chunk: int = 256
-) -> list[Layout]:
+def compute_layouts(points_batch: ArrayLike, progress: ProgressFn | None = None, *, chunk: int = 256) -> list[Layout]:
     """Best layout of each of ``B`` point sets given as ``(B, k, 2)`` (3 ≤ k ≤ 8, k ≠ 4).
 
     Exhaustive over covers of ``m = ⌈k/3⌉, ⌈k/3⌉ + 1, …`` empty triangles (vertex-level
@@ -419,7 +409,7 @@ def layout_quality(points: ArrayLike, triangles: Sequence[Sequence[int]]) -> Lay
     tris = [tuple(sorted(int(i) for i in t)) for t in triangles]
     tb = _tables(k)
     index = {tuple(int(v) for v in t): n for n, t in enumerate(tb.tris)}
-    ids = np.array([index[t] for t in tris], dtype=np.intp)  # type: ignore[index]
+    ids = np.array([index[t] for t in tris], dtype=np.intp)
     geo = _SetGeometry(pts)
     angle = float(geo.tri_angle[0, ids].min())
     side = float(geo.tri_side[0, ids].min())
@@ -443,9 +433,9 @@ def _orient(p: Sequence[float], q: Sequence[float], r: Sequence[float]) -> float
     return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
 
 
-def _clip(poly: list[tuple[float, float]], a: tuple[float, float], b: tuple[float, float], sign: float) -> list[
-    tuple[float, float]
-]:
+def _clip(
+    poly: list[tuple[float, float]], a: tuple[float, float], b: tuple[float, float], sign: float
+) -> list[tuple[float, float]]:
     """Keep the part of ``poly`` on the side ``sign`` of the line a → b (Sutherland–Hodgman)."""
     out: list[tuple[float, float]] = []
     n = len(poly)

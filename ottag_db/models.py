@@ -25,6 +25,7 @@ __all__ = [
     "Base",
     "OrderType",
     "Realization",
+    "LayoutRow",
     "Source",
     "coordinates_from_blob",
     "coordinates_to_blobs",
@@ -105,6 +106,7 @@ class Realization(Base):
 
     order_type: Mapped[OrderType] = relationship(back_populates="realizations")
     source: Mapped[Source] = relationship(back_populates="realizations")
+    layout: Mapped[LayoutRow | None] = relationship(back_populates="realization", uselist=False)
 
     def points(self) -> NDArray[np.int64]:
         """Coordinates as a ``(k, 2)`` int64 array in file order."""
@@ -117,6 +119,40 @@ class Realization(Base):
     def canonical_points(self) -> NDArray[np.int64]:
         """Coordinates in canonical label order (row ``l`` = point with label ``l``)."""
         return self.points()[list(self.labeling())]
+
+
+class LayoutRow(Base):
+    """The triangles drawn for a realization, their quality figures and the tag placement.
+
+    ``triangles`` is ``"a,b,c;d,e,f"`` (file indices); ``placement`` the JSON ``(2, 3)``
+    affine map from file coordinates to data-area unit coordinates (x right, y down);
+    ``printed_mp_unit`` the MP after placement in units of the data-area side.
+    """
+
+    __tablename__ = "layouts"
+    __table_args__ = (UniqueConstraint("realization_id"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    realization_id: Mapped[int] = mapped_column(ForeignKey("realizations.id", ondelete="CASCADE"))
+    triangles: Mapped[str] = mapped_column(String(200))
+    triangle_count: Mapped[int] = mapped_column(Integer)
+    min_angle_deg: Mapped[float] = mapped_column(Float)
+    min_side: Mapped[float] = mapped_column(Float)
+    min_gap: Mapped[float | None] = mapped_column(Float, nullable=True)
+    min_shared_gap_deg: Mapped[float | None] = mapped_column(Float, nullable=True)
+    score: Mapped[float] = mapped_column(Float)
+    placement: Mapped[str] = mapped_column(String(400))
+    printed_mp_unit: Mapped[float] = mapped_column(Float)
+
+    realization: Mapped[Realization] = relationship(back_populates="layout")
+
+    def triangle_list(self) -> list[tuple[int, int, int]]:
+        """Triangles as index triples into the realization's file-order points."""
+        out = []
+        for t in self.triangles.split(";"):
+            a, b, c = (int(v) for v in t.split(","))
+            out.append((a, b, c))
+        return out
 
 
 def coordinates_to_blobs(points: NDArray[np.integer]) -> list[bytes]:
