@@ -263,6 +263,7 @@ def show_cmd(ident: str, as_json: bool, db_target: str | None, quiet: bool) -> N
         click.echo(json.dumps(out, indent=2))
         return
     click.echo(f"id          {s.id}")
+    click.echo(f"number      {s.number if s.number is not None else '(import every order type of k to number it)'}")
     click.echo(f"lambda      {s.lambda_text}")
     click.echo(f"k           {s.k}")
     click.echo(f"hull size   {s.hull_size}")
@@ -305,6 +306,8 @@ def id_cmd(points: str, as_json: bool, db_target: str | None, quiet: bool) -> No
     click.echo(f"MP          {res.mp:.3f}")
     click.echo(f"labeling    {' '.join(str(v) for v in res.labeling)}")
     click.echo(f"in database {'yes, id ' + str(res.id) if res.in_database else 'no'}")
+    if res.number is not None:
+        click.echo(f"number      {res.number}")
 
 
 # ----------------------------------------------------------------------------- list
@@ -315,18 +318,30 @@ def _write_list(rows: list[OrderTypeSummary], fmt: str) -> None:
     if fmt == "csv":
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["id", "k", "lambda", "mp", "points", "hull_size", "unique_min", "chiral", "mirror"])
+        w.writerow(["id", "k", "lambda", "mp", "points", "hull_size", "unique_min", "chiral", "mirror", "number"])
         for r in rows:
             pts = " ".join(f"{x},{y}" for x, y in r.points)
             w.writerow(
-                [r.id, r.k, r.lambda_text, f"{r.mp:.6f}", pts, r.hull_size, int(r.unique_min), int(r.chiral), r.mirror]
+                [
+                    r.id,
+                    r.k,
+                    r.lambda_text,
+                    f"{r.mp:.6f}",
+                    pts,
+                    r.hull_size,
+                    int(r.unique_min),
+                    int(r.chiral),
+                    r.mirror,
+                    "" if r.number is None else r.number,
+                ]
             )
         click.echo(buf.getvalue(), nl=False)
         return
-    click.echo(f"{'id':>6} {'k':>2} {'MP':>7} {'hull':>4} {'uniq':>4} {'chir':>4}  lambda")
+    click.echo(f"{'id':>6} {'number':>6} {'k':>2} {'MP':>7} {'hull':>4} {'uniq':>4} {'chir':>4}  lambda")
     for r in rows:
+        num = "-" if r.number is None else str(r.number)
         click.echo(
-            f"{r.id:>6} {r.k:>2} {r.mp:>7.3f} {r.hull_size:>4} {'yes' if r.unique_min else 'no':>4} "
+            f"{r.id:>6} {num:>6} {r.k:>2} {r.mp:>7.3f} {r.hull_size:>4} {'yes' if r.unique_min else 'no':>4} "
             f"{'yes' if r.chiral else 'no':>4}  {r.lambda_text}"
         )
 
@@ -361,6 +376,7 @@ _TAG_SIZE_HELP = (
 @click.option("--min-mp", type=click.FloatRange(min=0), default=None, help="Only MP >= V (grid units, as Table 7).")
 @click.option("--matchable", is_flag=True, help="Only unique-minimum order types (point matching).")
 @click.option("--ids", "ids", multiple=True, metavar="ID", help="Only these IDs (k:digits or database id; repeatable).")
+@click.option("--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags, labelled with their numbers.")
 @click.option("--polarity", type=click.Choice(["normal", "inverted", "both"]), default="normal", show_default=True)
 @click.option("--tag-size", default="50mm", show_default=True, help=_TAG_SIZE_HELP + ".")
 @click.option("--quiet-zone", default=None, help="White border around the data area [default: 0.25 × tag size].")
@@ -377,6 +393,7 @@ def export_cmd(
     min_mp: float | None,
     matchable: bool,
     ids: tuple[str, ...],
+    dictionary: str | None,
     polarity: str,
     tag_size: str,
     quiet_zone: str | None,
@@ -409,7 +426,7 @@ def export_cmd(
     with _database(db_target, quiet) as db:
         bar = _Progress("writing tags", quiet)
         try:
-            rep = export_sheet(db, out, flt, options, polarity=polarity, progress=bar)
+            rep = export_sheet(db, out, flt, options, polarity=polarity, dictionary=dictionary, progress=bar)
         finally:
             bar.close()
     click.echo(
@@ -435,6 +452,151 @@ def render_cmd(ident: str, out: Path, px: int, polarity: str, db_target: str | N
     with _database(db_target, quiet) as db:
         geom = render_tag(db, ident, out, px=px, polarity=polarity)
     click.echo(f"{out}: k = {geom.k}, {polarity}, printed MP {geom.mp_unit:.4f} × tag size")
+
+
+# ----------------------------------------------------------------------------- dictionary
+@cli.group("dictionary", cls=_Group)
+def dictionary_group() -> None:
+    """Named tag dictionaries with stable numbers and a minimum flip distance."""
+
+
+@dictionary_group.command("create")
+@click.argument("name")
+@click.option("--k", "ks", type=click.IntRange(3, 8), multiple=True, help="Only these point counts (repeatable).")
+@click.option("--min-mp", type=click.FloatRange(min=0), default=None, help="Only MP >= V (grid units).")
+@click.option("--matchable", is_flag=True, help="Only unique-minimum order types.")
+@click.option("--polarity", type=click.Choice(["normal", "inverted", "both"]), default="normal", show_default=True)
+@click.option("--include-mirrors/--no-mirrors", default=True, show_default=True, help="Both chiralities as members.")
+@click.option(
+    "--min-flip-distance",
+    type=click.IntRange(1, 4),
+    default=2,
+    show_default=True,
+    help="2: no two members are one triple-flip apart, so a single-triple misread is rejected.",
+)
+@click.option("--max-size", type=click.IntRange(min=1), default=None, help="At most N tags.")
+@_db_options
+@_quiet_option
+def dictionary_create(
+    name: str,
+    ks: tuple[int, ...],
+    min_mp: float | None,
+    matchable: bool,
+    polarity: str,
+    include_mirrors: bool,
+    min_flip_distance: int,
+    max_size: int | None,
+    db_target: str | None,
+    quiet: bool,
+) -> None:
+    """Create dictionary NAME: greedy by MP (highest first), then k and λ; tags numbered 0 … N−1."""
+    from .dictionary import DictionaryOptions, create_dictionary
+    from .numbering import COMPLETE_COUNTS
+
+    opts = DictionaryOptions(
+        ks=ks,
+        min_mp=min_mp,
+        matchable=matchable,
+        polarity=polarity,
+        include_mirrors=include_mirrors,
+        min_flip_distance=min_flip_distance,
+        max_size=max_size,
+    )
+    with _database(db_target, quiet) as db:
+        bar = _Progress("flip graph", quiet)
+        try:
+            info = create_dictionary(db, name, opts, progress=bar)
+        finally:
+            bar.close()
+    click.echo(f"dictionary {info.name}: {len(info.members)} tags, min flip distance {info.min_flip_distance}")
+    for k, n in info.counts().items():
+        click.echo(f"  k = {k}: {n} tags (of {COMPLETE_COUNTS.get(k, '?')} order types)")
+
+
+@dictionary_group.command("list")
+@_db_options
+@_quiet_option
+def dictionary_list(db_target: str | None, quiet: bool) -> None:
+    """List dictionaries."""
+    from .dictionary import list_dictionaries
+
+    with _database(db_target, quiet) as db:
+        rows = list_dictionaries(db)
+    for name, dist, n, created in rows:
+        click.echo(f"{name}\t{n} tags\tmin flip distance {dist}\tcreated {created:%Y-%m-%d %H:%M}")
+    _note(f"{len(rows)} dictionar{'y' if len(rows) == 1 else 'ies'}", quiet)
+
+
+@dictionary_group.command("show")
+@click.argument("name")
+@_db_options
+@_quiet_option
+def dictionary_show(name: str, db_target: str | None, quiet: bool) -> None:
+    """Show a dictionary's members."""
+    from .dictionary import get_dictionary
+
+    with _database(db_target, quiet) as db:
+        info = get_dictionary(db, name)
+    click.echo(f"{info.name}: {len(info.members)} tags, min flip distance {info.min_flip_distance}")
+    click.echo(f"parameters: {json.dumps(info.parameters, sort_keys=True)}")
+    click.echo(f"{'tag':>5} {'number':>6} {'k':>2} {'MP':>7} {'polarity':>8}  lambda")
+    for m in info.members:
+        num = "-" if m.universal_number is None else str(m.universal_number)
+        click.echo(f"{m.number:>5} {num:>6} {m.k:>2} {m.mp:>7.3f} {m.polarity:>8}  {m.lambda_text}")
+
+
+@dictionary_group.command("delete")
+@click.argument("name")
+@_db_options
+@_quiet_option
+def dictionary_delete(name: str, db_target: str | None, quiet: bool) -> None:
+    """Delete a dictionary."""
+    from .dictionary import delete_dictionary
+
+    with _database(db_target, quiet) as db:
+        n = delete_dictionary(db, name)
+    click.echo(f"deleted dictionary {name} ({n} tags)")
+
+
+@dictionary_group.command("export")
+@click.argument("name")
+@click.option("--format", "fmt", type=click.Choice(["json", "csv"]), default="json", show_default=True)
+@click.option("--output", "-o", type=click.Path(path_type=Path), default=None, help="File to write [default: stdout].")
+@_db_options
+@_quiet_option
+def dictionary_export(name: str, fmt: str, output: Path | None, db_target: str | None, quiet: bool) -> None:
+    """Export a dictionary (everything another implementation needs) as JSON or CSV."""
+    from .dictionary import export_dictionary
+
+    with _database(db_target, quiet) as db:
+        text = export_dictionary(db, name, fmt)
+    if output is None:
+        click.echo(text, nl=not text.endswith("\n"))
+    else:
+        try:
+            output.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise _CliError(f"{output}: cannot write ({exc.strerror})") from exc
+        _note(f"wrote {output}", quiet)
+
+
+@dictionary_group.command("import")
+@click.argument("file", type=click.Path(path_type=Path))
+@click.option("--name", default=None, help="Store under this name instead of the file's.")
+@_db_options
+@_quiet_option
+def dictionary_import(file: Path, name: str | None, db_target: str | None, quiet: bool) -> None:
+    """Import a dictionary from its JSON export (its order types must be in the database)."""
+    from .dictionary import import_dictionary
+    from .errors import DictionaryError
+
+    try:
+        text = file.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DictionaryError(f"{file}: cannot read ({exc})") from exc
+    with _database(db_target, quiet) as db:
+        info = import_dictionary(db, text, source=str(file), name=name)
+    click.echo(f"imported dictionary {info.name}: {len(info.members)} tags")
 
 
 # ----------------------------------------------------------------------------- db

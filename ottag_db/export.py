@@ -101,16 +101,21 @@ def export_sheet(
     options: SheetOptions,
     *,
     polarity: str = "normal",
+    dictionary: str | None = None,
     progress: ProgressCallback | None = None,
 ) -> SheetReport:
     """Write a PDF tag sheet of the selected tags; ``polarity`` is normal, inverted or both.
 
     With ``both`` each tag is followed by its inverted variant. The filter summary and the
-    polarity are printed on every page.
+    polarity are printed on every page. With ``dictionary`` the sheet holds that
+    dictionary's members in number order (each in its own polarity, labelled with its tag
+    number), narrowed by ``flt``.
     """
     if polarity not in ("normal", "inverted", "both"):
         raise UsageError(f"polarity must be normal, inverted or both, got {polarity!r}")
     _check_writable(Path(out))
+    if dictionary is not None:
+        return _export_dictionary_sheet(db, out, dictionary, flt, options, progress)
     tags = select_for_export(db, flt)
     polarities: list[Polarity] = ["normal", "inverted"] if polarity == "both" else [polarity]  # type: ignore[list-item]
     placed = tag_geometries(tags, polarities[0], options.tag_size_mm)  # place once, recolour below
@@ -123,6 +128,38 @@ def export_sheet(
     summary = flt.summary() + f"; polarity {polarity}"
     opts = dataclasses.replace(options, filter_summary=summary)
     return write_tag_sheet(out, sheet_tags, opts, progress=progress)
+
+
+def _export_dictionary_sheet(
+    db: Database,
+    out: str | os.PathLike[str],
+    name: str,
+    flt: TagFilter,
+    options: SheetOptions,
+    progress: ProgressCallback | None,
+) -> SheetReport:
+    from .dictionary import get_dictionary
+
+    info = get_dictionary(db, name)
+    allowed = {t.order_type_id for t in select_tags(db, ks=flt.ks, min_mp=flt.min_mp, matchable=flt.matchable)}
+    if flt.ids:
+        allowed &= {t.order_type_id for t in select_for_export(db, TagFilter(ids=flt.ids))}
+    members = [m for m in info.members if m.order_type_id in allowed]
+    if not members:
+        raise ExportError(f"no tag of dictionary {name} matches the filters ({flt.summary()}); nothing written")
+    tags = {t.order_type_id: t for t in select_tags(db, ids=sorted({m.order_type_id for m in members}))}
+    ordered = [tags[m.order_type_id] for m in members]
+    placed = tag_geometries(ordered, "normal", options.tag_size_mm)
+    sheet_tags = [
+        SheetTag(
+            geom=g.with_polarity(m.polarity),  # type: ignore[arg-type]
+            id_short=short_id(m.lambda_text),
+            caption=f"{name} tag {m.number}",
+        )
+        for m, g in zip(members, placed, strict=True)
+    ]
+    summary = f"dictionary {name} (min flip distance {info.min_flip_distance}); " + flt.summary()
+    return write_tag_sheet(out, sheet_tags, dataclasses.replace(options, filter_summary=summary), progress=progress)
 
 
 def _check_writable(path: Path) -> None:

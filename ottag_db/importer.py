@@ -17,6 +17,7 @@ from sqlalchemy.dialects import postgresql
 
 from .canonical import canonicalize_lambdas, mirror_lambdas
 from .db import Database
+from .numbering import assign_numbers
 from .errors import GeneralPositionError, PointFileError
 from .geometry import analyse_point_sets, check_general_position
 from .models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
@@ -225,6 +226,7 @@ def import_point_file(
                 f"{str(exc).split(': ', 1)[-1]}; every point set must be in general position — fix or drop that record"
             ) from exc
         after = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()
+        assign_numbers(conn)
     return ImportReport(
         info.path, info.n, info.records, int(after - before), added, False, time.perf_counter() - start, with_mirrors
     )

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 from sqlalchemy import (
     Boolean,
+    CheckConstraint,
     DateTime,
     Float,
     ForeignKey,
@@ -16,6 +17,7 @@ from sqlalchemy import (
     LargeBinary,
     MetaData,
     String,
+    Text,
     UniqueConstraint,
 )
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
@@ -26,6 +28,10 @@ __all__ = [
     "OrderType",
     "Realization",
     "LayoutRow",
+    "FlipEdgeRow",
+    "FlipGraphStatus",
+    "Dictionary",
+    "DictionaryTag",
     "Source",
     "coordinates_from_blob",
     "coordinates_to_blobs",
@@ -70,7 +76,7 @@ class OrderType(Base):
     """One order type, identified by its canonical λ-matrix (text form ``k:digits``)."""
 
     __tablename__ = "order_types"
-    __table_args__ = (UniqueConstraint("k", "canonical_lambda"),)
+    __table_args__ = (UniqueConstraint("k", "canonical_lambda"), UniqueConstraint("k", "number"))
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     k: Mapped[int] = mapped_column(Integer)
@@ -80,6 +86,9 @@ class OrderType(Base):
     hull_size: Mapped[int] = mapped_column(Integer)
     mirror_lambda: Mapped[str] = mapped_column(String(110))
     chiral: Mapped[bool] = mapped_column(Boolean)
+    # Rank among all order types of k (both chiralities) by canonical λ; set once the
+    # database holds every order type of k, so it is the same in every complete database.
+    number: Mapped[int | None] = mapped_column(Integer, nullable=True)
 
     realizations: Mapped[list[Realization]] = relationship(back_populates="order_type")
 
@@ -153,6 +162,63 @@ class LayoutRow(Base):
             a, b, c = (int(v) for v in t.split(","))
             out.append((a, b, c))
         return out
+
+
+class FlipEdgeRow(Base):
+    """Two order types one triple-flip apart; ``triple`` = canonical labels ``a,b,c`` of the source."""
+
+    __tablename__ = "flip_edges"
+    __table_args__ = (Index("ix_flip_edges_target_id", "target_id"),)
+
+    source_id: Mapped[int] = mapped_column(ForeignKey("order_types.id", ondelete="CASCADE"), primary_key=True)
+    target_id: Mapped[int] = mapped_column(ForeignKey("order_types.id", ondelete="CASCADE"), primary_key=True)
+    triple: Mapped[str] = mapped_column(String(8), primary_key=True)
+
+
+class FlipGraphStatus(Base):
+    """For which k the flip graph was computed (over how many order types)."""
+
+    __tablename__ = "flip_graph_status"
+
+    k: Mapped[int] = mapped_column(Integer, primary_key=True)
+    order_types: Mapped[int] = mapped_column(Integer)
+    edges: Mapped[int] = mapped_column(Integer)
+    computed_at: Mapped[datetime] = mapped_column(DateTime)
+
+
+class Dictionary(Base):
+    """A named tag dictionary; ``parameters`` is the JSON of the options it was made with."""
+
+    __tablename__ = "dictionaries"
+    __table_args__ = (UniqueConstraint("name"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    name: Mapped[str] = mapped_column(String(100))
+    min_flip_distance: Mapped[int] = mapped_column(Integer)
+    parameters: Mapped[str] = mapped_column(Text)
+    created_at: Mapped[datetime] = mapped_column(DateTime)
+
+    tags: Mapped[list[DictionaryTag]] = relationship(
+        back_populates="dictionary", order_by="DictionaryTag.number", cascade="all, delete-orphan"
+    )
+
+
+class DictionaryTag(Base):
+    """Member ``number`` (0 … N−1) of a dictionary: an order type in one polarity."""
+
+    __tablename__ = "dictionary_tags"
+    __table_args__ = (
+        UniqueConstraint("dictionary_id", "order_type_id", "polarity"),
+        CheckConstraint("polarity IN ('normal', 'inverted')", name="polarity"),
+    )
+
+    dictionary_id: Mapped[int] = mapped_column(ForeignKey("dictionaries.id", ondelete="CASCADE"), primary_key=True)
+    number: Mapped[int] = mapped_column(Integer, primary_key=True)
+    order_type_id: Mapped[int] = mapped_column(ForeignKey("order_types.id", ondelete="CASCADE"))
+    polarity: Mapped[str] = mapped_column(String(10))
+
+    dictionary: Mapped[Dictionary] = relationship(back_populates="tags")
+    order_type: Mapped[OrderType] = relationship()
 
 
 def coordinates_to_blobs(points: NDArray[np.integer]) -> list[bytes]:

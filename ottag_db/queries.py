@@ -64,11 +64,13 @@ class OrderTypeSummary:
     chiral: bool
     mirror: str
     realizations: int
+    number: int | None = None
 
     def as_json(self) -> dict[str, object]:
         """The machine-readable contract of ``list --format json``."""
         return {
             "id": self.id,
+            "number": self.number,
             "k": self.k,
             "lambda": self.lambda_text,
             "mp": self.mp,
@@ -118,6 +120,7 @@ class IdResult:
     labeling: tuple[int, ...]
     in_database: bool
     id: int | None
+    number: int | None = None
 
     def as_json(self) -> dict[str, object]:
         """The machine-readable contract of ``id --json``."""
@@ -127,6 +130,7 @@ class IdResult:
             "unique_min": self.unique_min,
             "in_database": self.in_database,
             "id": self.id,
+            "number": self.number,
             "minimal_orderings": self.minimal_orderings,
             "hull_size": self.hull_size,
             "mp": self.mp,
@@ -212,6 +216,7 @@ def list_order_types(
             chiral=bool(ot.chiral),
             mirror=ot.mirror_lambda,
             realizations=int(n),
+            number=ot.number,
         )
         for ot, mp, n in rows
     ]
@@ -278,6 +283,7 @@ def get_order_type(db: Database, ident: str | int) -> OrderTypeDetail:
             chiral=bool(ot.chiral),
             mirror=ot.mirror_lambda,
             realizations=len(infos),
+            number=ot.number,
         )
     return OrderTypeDetail(
         summary=summary, lambda_matrix=parse_lambda_text(summary.lambda_text), mirror_id=mirror_id, realizations=infos
@@ -310,11 +316,16 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
         raise GeneralPositionError(str(exc).replace("record 0: ", ""), points=exc.points) from exc
     form = canonical_form(pts)
     found: int | None = None
+    number: int | None = None
     if db is not None:
         with db.session() as s:
-            found = s.execute(
-                select(OrderType.id).where(OrderType.k == form.k, OrderType.canonical_lambda == form.text)
-            ).scalar_one_or_none()
+            row = s.execute(
+                select(OrderType.id, OrderType.number).where(
+                    OrderType.k == form.k, OrderType.canonical_lambda == form.text
+                )
+            ).first()
+            if row is not None:
+                found, number = int(row[0]), row[1]
     return IdResult(
         lambda_text=form.text,
         k=form.k,
@@ -325,4 +336,5 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
         labeling=form.labeling,
         in_database=found is not None,
         id=found,
+        number=number,
     )
