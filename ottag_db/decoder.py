@@ -1,0 +1,1070 @@
+"""Order Type Tag decoder: find data areas, fit triangles, read and verify the order type."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, fields
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from .canonical import canonical_orderings, lambda_text
+from .errors import DecodeError, UsageError
+from .lookup import LookupEntry, TagLookup
+
+__all__ = [
+    "REJECTION_REASONS",
+    "Detection",
+    "Detector",
+    "DetectorParams",
+    "Polarity",
+    "Rejected",
+    "to_gray",
+]
+
+Polarity = Literal["normal", "inverted"]
+
+#: Reasons a candidate data area can be rejected with (``Rejected.reason``).
+REJECTION_REASONS: dict[str, str] = {
+    "low_contrast": "the data area holds no two clearly separated grey levels",
+    "no_triangles": "no triangle was found inside the data area",
+    "touches_border": "a component inside the data area touches its border",
+    "non_triangle": "a component inside the data area is not a union of triangles",
+    "point_count": "the number of points is outside 3…8 or not held by the lookup",
+    "general_position": "three detected points are (numerically) collinear",
+    "low_margin": "the smallest point-to-line distance is below min_margin_px",
+    "unknown_id": "the order type is not in the lookup",
+    "verification": "no stored realization maps onto the points within the reprojection bound",
+    "quad_inconsistent": "the data-area corners do not map to a parallelogram of the tag plane",
+}
+
+_F64 = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One decoded Order Type Tag in an image.
+
+    Image coordinates are pixels, x = column, y = row, origin at the *centre* of the top-left
+    pixel (OpenCV's convention), sub-pixel floats.
+
+    - ``lambda_``: canonical ID ``k:digits``; ``k`` the number of points;
+    - ``order_type_id`` / ``tag``: from the lookup entry (None for unknown order types,
+      reported only with ``allow_unknown=True``);
+    - ``polarity``: ``"normal"`` (white triangles on a black data area) or ``"inverted"``;
+    - ``points``: ``(k, 2)`` detected points, row ``l`` = the point with canonical label ``l``;
+    - ``model_points``: ``(k, 2)`` the matched stored realization in canonical order (file/grid
+      coordinates), only when the order type has a unique minimal ordering, else None;
+    - ``corners``: ``(4, 2)`` sub-pixel data-area corners in the order tag top-left, top-right,
+      bottom-right, bottom-left (tag plane, x right, y down), found by mapping the corners
+      back through ``homography``; without a homography they are in image clockwise order
+      starting at the corner nearest the image origin;
+    - ``homography``: ``(3, 3)`` map from the realization's file coordinates (tag plane) to
+      the image, normalised so ``H[2, 2] = 1``; None when no realization was available;
+    - ``reprojection_error_px``: largest distance between a detected point and its
+      realization point mapped by ``homography`` (None without a homography);
+    - ``margin_px``: smallest distance from a detected point to a line through two others.
+    """
+
+    lambda_: str
+    k: int
+    order_type_id: int | None
+    tag: int | None
+    polarity: Polarity
+    points: _F64
+    model_points: _F64 | None
+    corners: _F64
+    homography: _F64 | None
+    reprojection_error_px: float | None
+    margin_px: float
+
+    @property
+    def center(self) -> tuple[float, float]:
+        """Centre of the data area (mean of the corners), image pixels."""
+        c = self.corners.mean(axis=0)
+        return float(c[0]), float(c[1])
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A candidate data area that did not become a detection.
+
+    ``reason`` is a key of :data:`REJECTION_REASONS`; ``corners`` the ``(4, 2)`` candidate quad
+    (image pixels, clockwise on screen); ``lambda_`` the ID read before the rejection, if any;
+    ``detail`` a short human-readable explanation with the measured value.
+    """
+
+    reason: str
+    polarity: Polarity
+    corners: _F64
+    lambda_: str | None = None
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class DetectorParams:
+    """Decoder settings (lengths in image pixels unless noted).
+
+    Candidate search:
+
+    - ``use_adaptive`` / ``use_otsu``: binarizations searched for data areas: local mean
+      thresholding (window ``adaptive_block`` px, odd, 0 = automatic: about 1/16 of the
+      shorter image side, at least 15; offset ``adaptive_c`` grey levels), then global Otsu
+      for quads the first pass did not give; the Otsu pass runs only when the adaptive pass
+      decoded nothing, unless ``otsu_always`` (costs one more contour pass per frame);
+    - ``polarities``: which tag polarities to look for;
+    - ``min_quad_area_px``: smallest data-area area (px²); ``min_quad_side_px``: shortest side;
+    - ``max_candidates``: at most this many candidate quads (largest first) are read per frame.
+
+    Reading:
+
+    - ``min_contrast``: grey levels between the dark and bright class inside the data area;
+    - ``min_triangle_area_px``: smaller components inside a data area are ignored as noise;
+    - ``merge_radius_px`` / ``merge_radius_rel``: vertex estimates of different triangles are
+      one (shared) point when the least-squares intersection of all their side lines lies
+      within ``max(merge_radius_px, merge_radius_rel * sqrt(area))`` of each of these lines;
+    - ``min_margin_px``: a reading whose smallest point-to-line distance is below this is
+      rejected (default 1.0 px: the vertices are fitted to ~0.1–0.3 px, so an orientation
+      cannot flip on a margin this large);
+    - ``verify``: check the reading against the stored realizations (see :class:`Detector`);
+    - ``max_reproj_px`` / ``max_reproj_rel``: reprojection bound
+      ``max(max_reproj_px, max_reproj_rel * sqrt(data-area area))`` on the largest point error;
+    - ``check_quad`` / ``max_quad_error``: the data-area corners mapped back to the tag plane
+      must form a parallelogram: ``|g0 − g1 + g2 − g3|`` at most ``max_quad_error`` times the
+      mean side (the tag is placed by an affine map, so the square becomes a parallelogram);
+    - ``allow_unknown``: also report order types missing from the lookup (IDs without
+      ``order_type_id``; with ``verify`` they cannot be verified and are reported unverified).
+    """
+
+    use_otsu: bool = True
+    use_adaptive: bool = True
+    otsu_always: bool = False
+    adaptive_block: int = 0
+    adaptive_c: float = 7.0
+    polarities: tuple[Polarity, ...] = ("normal", "inverted")
+    min_quad_area_px: float = 400.0
+    min_quad_side_px: float = 12.0
+    max_candidates: int = 64
+    min_contrast: float = 20.0
+    min_triangle_area_px: float = 6.0
+    merge_radius_px: float = 1.0
+    merge_radius_rel: float = 0.006
+    min_margin_px: float = 1.0
+    verify: bool = True
+    max_reproj_px: float = 1.5
+    max_reproj_rel: float = 0.02
+    check_quad: bool = True
+    max_quad_error: float = 0.25
+    allow_unknown: bool = False
+
+    def __post_init__(self) -> None:
+        if self.adaptive_block and (self.adaptive_block < 3 or self.adaptive_block % 2 == 0):
+            raise UsageError(f"adaptive_block must be 0 or an odd number >= 3, got {self.adaptive_block}")
+        for p in self.polarities:
+            if p not in ("normal", "inverted"):
+                raise UsageError(f"unknown polarity {p!r}: use 'normal' and/or 'inverted'")
+        if not (self.use_otsu or self.use_adaptive):
+            raise UsageError("at least one of use_otsu and use_adaptive must be True")
+        for name in ("min_quad_area_px", "min_quad_side_px", "min_margin_px", "max_reproj_px"):
+            if float(getattr(self, name)) < 0:
+                raise UsageError(f"{name} must not be negative")
+
+
+def to_gray(image: object) -> NDArray[np.uint8]:
+    """Convert an image array to 8-bit grey; raises :class:`DecodeError` for non-images.
+
+    Accepts ``(H, W)``, ``(H, W, 1)``, ``(H, W, 3)`` (BGR) and ``(H, W, 4)`` (BGRA) arrays of
+    uint8, uint16 (÷ 257; 12-bit data, maximum < 4096, × 255 / 4095), other integers (shifted
+    to 0 and scaled by 255 / range when outside 0…255), bool and floats (``[0, 1]`` scaled to
+    255, otherwise clipped to ``[0, 255]``; NaN → 0).
+    An empty array gives an empty ``(0, 0)`` result.
+    """
+    if not isinstance(image, np.ndarray):
+        try:
+            image = np.asarray(image)
+        except Exception as exc:  # pragma: no cover - exotic objects
+            raise DecodeError(f"not an image array: {type(image).__name__}") from exc
+    arr: NDArray[Any] = image
+    if arr.dtype == object or arr.dtype.kind not in "biuf":
+        raise DecodeError(f"not an image array: dtype {arr.dtype} (expected integer, bool or float)")
+    if arr.size == 0:
+        return np.zeros((0, 0), dtype=np.uint8)
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] not in (3, 4)):
+        raise DecodeError(f"not an image array: shape {arr.shape} (expected (H, W), (H, W, 3) BGR or (H, W, 4) BGRA)")
+    if arr.dtype != np.uint8:
+        if arr.dtype.kind == "b":
+            arr = arr.astype(np.uint8) * 255
+        elif arr.dtype.kind == "f":
+            f = np.nan_to_num(arr.astype(np.float32), nan=0.0, posinf=255.0, neginf=0.0)
+            if f.size and float(f.max()) <= 1.0 and float(f.min()) >= 0.0:
+                f = f * 255.0
+            arr = np.clip(f + 0.5, 0, 255).astype(np.uint8)
+        elif arr.dtype == np.uint16:
+            # 16-bit: full range, or 12-bit data (maximum below 4096) scaled from 0…4095
+            full = 4095.0 if int(arr.max()) < 4096 else 65535.0
+            arr = (arr.astype(np.float32) * (255.0 / full) + 0.5).astype(np.uint8)
+        else:
+            top = int(arr.max())
+            lo = min(int(arr.min()), 0)
+            if top > 255 or lo < 0:
+                scale = 255.0 / max(top - lo, 1)
+                arr = ((arr.astype(np.float32) - lo) * scale + 0.5).astype(np.uint8)
+            else:
+                arr = arr.astype(np.uint8)
+    if arr.ndim == 3:
+        code = cv2.COLOR_BGR2GRAY if arr.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
+        arr = cv2.cvtColor(np.ascontiguousarray(arr), code)
+    return np.ascontiguousarray(arr)
+
+
+@dataclass
+class _Quad:
+    polarity: Polarity
+    corners: _F64  # (4, 2) clockwise on screen
+    area: float
+
+
+@dataclass
+class _Triangles:
+    """Triangles found in one data area, in ROI coordinates."""
+
+    chains: list[NDArray[np.float64]]  # one (m, 2) contour chain per side, 3 per triangle
+    count: int
+
+
+class Detector:
+    """Order Type Tag detector, configured once and applied to many frames.
+
+    Pipeline (paper Sec. 4.1.1–4.1.4, extended): grey → dark masks by global Otsu and by
+    local mean thresholding → contours with hierarchy; outer contours of dark regions are
+    candidate *normal* data areas, hole contours (bright regions inside dark) candidate
+    *inverted* ones; convex quadrilaterals above the area threshold are kept. Inside each
+    data area a local Otsu threshold separates the triangles; every component must be a
+    union of triangles meeting only at vertices (components that touch themselves at a
+    shared vertex are split at the pinch, else by a 3×3 opening as in the paper), and each
+    triangle side is re-located at sub-pixel precision on the grey image (threshold
+    crossings along the side normals, then a least-squares line); vertices are the
+    intersections of adjacent sides, shared vertices are clustered. The canonical ID of the
+    points is looked up; with ``verify`` every stored realization and every minimal
+    labeling is mapped onto the points by a homography and the best fit must stay within
+    the reprojection bound (and the data-area corners must map back to a parallelogram).
+    With ``verify=False`` the decision is the paper's: the order type alone.
+    """
+
+    def __init__(self, lookup: TagLookup, **params: Any):
+        names = {f.name for f in fields(DetectorParams)}
+        unknown = sorted(set(params) - names)
+        if unknown:
+            raise UsageError(f"unknown detector parameter(s) {unknown}; valid: {sorted(names)}")
+        if "polarities" in params and isinstance(params["polarities"], str):
+            params["polarities"] = (params["polarities"],)
+        elif "polarities" in params:
+            params["polarities"] = tuple(params["polarities"])
+        self.params = DetectorParams(**params)
+        self.lookup = lookup
+        self._ks = frozenset(lookup.ks)
+        self.last_rejections: list[Rejected] = []
+
+    # ------------------------------------------------------------------ public API
+    def detect(self, image: object) -> list[Detection]:
+        """Decode all tags in an image; rejected candidates are kept in ``last_rejections``."""
+        detections, _ = self.detect_with_rejections(image)
+        return detections
+
+    def detect_with_rejections(self, image: object) -> tuple[list[Detection], list[Rejected]]:
+        """Decode all tags and also return the rejected candidate data areas with reasons."""
+        gray = to_gray(image)
+        rejected: list[Rejected] = []
+        detections: list[Detection] = []
+        if gray.shape[0] < 8 or gray.shape[1] < 8:
+            self.last_rejections = rejected
+            return detections, rejected
+        p = self.params
+        passes = (["adaptive"] if p.use_adaptive else []) + (["otsu"] if p.use_otsu else [])
+        seen: list[_Quad] = []
+        for kind in passes:
+            if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
+                break  # the global threshold is the fallback of the local one
+            quads = [q for q in self._candidates(gray, kind) if not any(_same_quad(q, o) for o in seen)]
+            seen.extend(quads)
+            for quad in sorted(quads, key=lambda q: q.area):
+                if _around_detection(quad, detections):
+                    continue
+                result = self._read(gray, quad)
+                if isinstance(result, Rejected):
+                    rejected.append(result)
+                elif not any(_same_tag(result, d) for d in detections):
+                    detections.append(result)
+        self.last_rejections = rejected
+        return detections, rejected
+
+    # ------------------------------------------------------------------ candidates
+    def _candidates(self, gray: NDArray[np.uint8], kind: str) -> list[_Quad]:
+        """Convex quadrilateral contours of one binarization (``"otsu"`` or ``"adaptive"``)."""
+        p = self.params
+        h, w = gray.shape
+        masks: list[NDArray[Any]] = []
+        if kind == "otsu":
+            _, m = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+            masks.append(m)
+        else:
+            block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
+            masks.append(
+                cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, p.adaptive_c)
+            )
+        want_normal = "normal" in p.polarities
+        want_inverted = "inverted" in p.polarities
+        min_len = 4 * p.min_quad_side_px
+        min_area = max(p.min_quad_area_px, p.min_quad_side_px**2)
+        max_area = 0.95 * h * w
+        quads: list[_Quad] = []
+        for m in masks:
+            contours, hier = cv2.findContours(m, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+            if hier is None:
+                continue
+            parents = hier[0][:, 3]
+            for i, c in enumerate(contours):
+                if len(c) < min_len:
+                    continue
+                inverted = bool(parents[i] >= 0)
+                if (inverted and not want_inverted) or (not inverted and not want_normal):
+                    continue
+                approx = cv2.approxPolyDP(c, 0.03 * len(c), True)
+                if len(approx) != 4 or not cv2.isContourConvex(approx):
+                    continue
+                area = abs(float(cv2.contourArea(approx)))
+                if area < min_area or area > max_area:
+                    continue
+                q = approx.reshape(4, 2).astype(np.float64)
+                if q[:, 0].min() < 2 or q[:, 1].min() < 2 or q[:, 0].max() > w - 3 or q[:, 1].max() > h - 3:
+                    continue
+                sides = np.linalg.norm(q - np.roll(q, -1, axis=0), axis=1)
+                if sides.min() < p.min_quad_side_px:
+                    continue
+                q = _clockwise(q)
+                polarity: Polarity = "inverted" if inverted else "normal"
+                cand = _Quad(polarity, q, area)
+                if not any(_same_quad(cand, o) for o in quads):
+                    quads.append(cand)
+        quads.sort(key=lambda qq: -qq.area)
+        return quads[: p.max_candidates]
+
+    # ------------------------------------------------------------------ reading
+    def _read(self, gray: NDArray[np.uint8], quad: _Quad) -> Detection | Rejected:
+        p = self.params
+        h, w = gray.shape
+        q = quad.corners
+        x0 = max(math.floor(q[:, 0].min()) - 4, 0)
+        y0 = max(math.floor(q[:, 1].min()) - 4, 0)
+        x1 = min(math.ceil(q[:, 0].max()) + 5, w)
+        y1 = min(math.ceil(q[:, 1].max()) + 5, h)
+        roi = gray[y0:y1, x0:x1]
+        if quad.polarity == "inverted":
+            roi = 255 - roi
+        origin = np.array([x0, y0], dtype=np.float64)
+        ql = q - origin
+
+        def reject(reason: str, detail: str = "", lam: str | None = None) -> Rejected:
+            return Rejected(reason, quad.polarity, q.copy(), lam, detail)
+
+        # Interior mask: the quad without a band along its border (blur of the quiet zone edge).
+        side = math.sqrt(quad.area)
+        band = max(2, round(0.02 * side))
+        mask: NDArray[Any] = np.zeros((roi.shape[0], roi.shape[1]), dtype=np.uint8)
+        qi: NDArray[Any] = np.round(ql * 16).astype(np.int32).reshape(4, 1, 2)
+        cv2.fillPoly(mask, [qi], 255, cv2.LINE_8, 4)
+        cv2.polylines(mask, [qi], True, 0, 2 * band + 1, cv2.LINE_8, 4)
+        hist = cv2.calcHist([roi], [0], mask, [256], [0, 256]).ravel()
+        thr = _otsu(hist)
+        if thr is None or thr[2] - thr[1] < p.min_contrast:
+            return reject("low_contrast", "" if thr is None else f"{thr[2] - thr[1]:.0f} grey levels")
+        t_mid = 0.5 * (thr[1] + thr[2])
+        fg = ((roi > t_mid).astype(np.uint8) * 255) & mask
+        frac = cv2.countNonZero(fg) / max(cv2.countNonZero(mask), 1)
+        if frac < 0.01 or frac > 0.75:
+            return reject("no_triangles", f"bright fraction {frac:.2f}")
+        tris = self._triangles(fg, side)
+        if isinstance(tris, str):
+            return reject(tris)
+        if tris.count == 0:
+            return reject("no_triangles")
+        roi_f = roi.astype(np.float32)
+        # Sub-pixel triangle sides and data-area sides on the grey image.
+        n_t, c_t = _fit_chains(tris.chains)
+        n_t, c_t = _refine_lines(roi_f, n_t, c_t, _triangle_vertices(n_t, c_t), 3, t_mid)
+        verts = _triangle_vertices(n_t, c_t)
+        if not np.isfinite(verts).all():
+            return reject("non_triangle", "degenerate triangle")
+        qn, qc = _lines_through(ql)
+        qn, qc = _refine_lines(roi_f, qn, qc, ql.reshape(1, 4, 2), 4, t_mid)
+        corners_l = _polygon_vertices(qn, qc, 4)
+        if not np.isfinite(corners_l).all() or np.abs(corners_l - ql).max() > 0.1 * side + 3:
+            corners_l = ql
+        corners = corners_l + origin
+        tol = max(p.merge_radius_px, p.merge_radius_rel * side)
+        sure = max(2 * p.merge_radius_px, 2 * p.merge_radius_rel * side)
+        first: Rejected | None = None
+        for pts_l in _cluster_hypotheses(verts, n_t, c_t, 0.15 * side, sure, tol):
+            result = self._identify(pts_l + origin, corners, quad)
+            if isinstance(result, Detection):
+                return result
+            if first is None:
+                first = result
+        return first if first is not None else reject("non_triangle", "degenerate vertex")
+
+    def _identify(self, pts: _F64, corners: _F64, quad: _Quad) -> Detection | Rejected:
+        """ID, lookup and verification of one point hypothesis (image pixels)."""
+        p = self.params
+        q = quad.corners
+
+        def reject(reason: str, detail: str = "", lam: str | None = None) -> Rejected:
+            return Rejected(reason, quad.polarity, q.copy(), lam, detail)
+
+        k = len(pts)
+        if k < 3 or k > 8 or (k not in self._ks and not p.allow_unknown):
+            return reject("point_count", f"{k} points")
+        margin = _margin(pts)
+        if not margin > 0:
+            return reject("general_position")
+        orderings = canonical_orderings(pts)
+        best_mat = orderings[0][1]
+        lam = lambda_text(best_mat)
+        if margin < p.min_margin_px:
+            return reject("low_margin", f"margin {margin:.2f} px", lam)
+        minimal = [lab for lab, mat in orderings if np.array_equal(mat, best_mat)]
+        entry = self.lookup.get(lam)
+        if entry is None:
+            if not p.allow_unknown:
+                return reject("unknown_id", "", lam)
+            return Detection(
+                lam, k, None, None, quad.polarity, pts[list(minimal[0])], None,
+                corners, None, None, margin,
+            )  # fmt: skip
+        return self._verify(entry, pts, minimal, corners, quad, margin, lam)
+
+    def _verify(
+        self,
+        entry: LookupEntry,
+        pts: _F64,
+        minimal: list[tuple[int, ...]],
+        corners: _F64,
+        quad: _Quad,
+        margin: float,
+        lam: str,
+    ) -> Detection | Rejected:
+        p = self.params
+        side = math.sqrt(quad.area)
+        bound = max(p.max_reproj_px, p.max_reproj_rel * side)
+        # every (realization, minimal labeling): homography, largest point error, and how far
+        # the corners mapped back to the tag plane are from a parallelogram (rel. to the side)
+        fits: list[tuple[float, float, _F64, _F64, _F64, _F64]] = []
+        for real in entry.realizations:
+            src = np.asarray(real, dtype=np.float64)
+            if src.shape != pts.shape:
+                continue
+            for lab in minimal:
+                dst = pts[list(lab)]
+                hmat = _homography(src, dst)
+                if hmat is None:
+                    continue
+                err = float(np.linalg.norm(_apply_h(hmat, src) - dst, axis=1).max())
+                try:
+                    g = _apply_h(np.asarray(np.linalg.inv(hmat), dtype=np.float64), corners)
+                except np.linalg.LinAlgError:
+                    continue
+                sides = float(np.linalg.norm(g - np.roll(g, -1, axis=0), axis=1).mean())
+                par = float(np.linalg.norm(g[0] - g[1] + g[2] - g[3])) / max(sides, 1e-9)
+                if not np.isfinite(par):
+                    par = math.inf
+                fits.append((err, par, hmat, dst, src, g))
+        if not fits:
+            if p.verify:
+                return Rejected("verification", quad.polarity, quad.corners.copy(), lam, "no realization")
+            return Detection(
+                lam, entry.k, entry.order_type_id, entry.tag, quad.polarity, pts[list(minimal[0])], None,
+                corners, None, None, margin,
+            )  # fmt: skip
+        quad_w = 1.0 if p.check_quad else 0.0
+        if p.verify:
+            passing = [f for f in fits if f[0] <= bound]
+            if not passing:
+                return Rejected(
+                    "verification", quad.polarity, quad.corners.copy(), lam,
+                    f"reprojection error {min(f[0] for f in fits):.2f} px > {bound:.2f} px",
+                )  # fmt: skip
+            if p.check_quad:
+                fits = [f for f in passing if f[1] <= p.max_quad_error]
+                if not fits:
+                    return Rejected(
+                        "quad_inconsistent", quad.polarity, quad.corners.copy(), lam,
+                        f"parallelogram error {min(f[1] for f in passing):.3f} of the side",
+                    )  # fmt: skip
+            else:
+                fits = passing
+        err, _, hmat, dst, src, g = min(
+            fits, key=lambda f: f[0] / bound + quad_w * min(f[1], 1e6) / max(p.max_quad_error, 1e-9)
+        )
+        ordered = corners
+        if np.isfinite(g).all():
+            ang = np.arctan2(g[:, 1] - g[:, 1].mean(), g[:, 0] - g[:, 0].mean())
+            start = int(np.argmin(np.abs(np.angle(np.exp(1j * (ang + 0.75 * math.pi))))))
+            order = np.argsort(np.mod(ang - ang[start], 2 * math.pi))
+            ordered = corners[order]
+        return Detection(
+            lambda_=lam,
+            k=entry.k,
+            order_type_id=entry.order_type_id,
+            tag=entry.tag,
+            polarity=quad.polarity,
+            points=dst.copy(),
+            model_points=src.copy() if entry.unique_min else None,
+            corners=ordered,
+            homography=hmat,
+            reprojection_error_px=err,
+            margin_px=margin,
+        )
+
+    # ------------------------------------------------------------------ triangles
+    def _triangles(self, fg: NDArray[Any], side: float) -> _Triangles | str:
+        """Split the bright components of a data area into triangles (contour side chains)."""
+        p = self.params
+        contours, hier = cv2.findContours(fg, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+        out = _Triangles([], 0)
+        if hier is None:
+            return out
+        hh = hier[0]
+        min_area = max(p.min_triangle_area_px, 2e-4 * side * side)
+        max_area = 0.45 * side * side  # no triangle of a tag covers half its data area
+        for i, c in enumerate(contours):
+            if hh[i][3] >= 0 or len(c) < 8:
+                continue
+            pts = c.reshape(-1, 2)
+            area = abs(float(cv2.contourArea(c)))
+            if area + 0.35 * len(pts) < min_area:
+                continue
+            if area > max_area:
+                return "non_triangle"
+            if area > 0.1 * side * side:
+                # a filled square (e.g. the data area of a nested, inverted tag) is no triangle
+                poly = cv2.approxPolyDP(c, 0.03 * len(c), True)
+                if len(poly) == 4 and cv2.isContourConvex(poly):
+                    return "non_triangle"
+            # A ring of triangles (each sharing vertices with the next) encloses a hole: bridge
+            # every hole into the outer contour at their closest points (a shared vertex) so
+            # the splitter sees one contour pinched at the shared vertices.
+            child = hh[i][2]
+            while child >= 0:
+                hole = contours[child].reshape(-1, 2)
+                if len(hole) >= 8:
+                    pts = _bridge(pts, hole)
+                child = hh[child][0]
+            tri = _split_triangles(pts, 0)
+            if tri is None:
+                tri = _triangles_by_opening(fg, contours, hier, i)
+            if tri is None:
+                return "non_triangle"
+            out.chains.extend(tri)
+            out.count += len(tri) // 3
+        return out
+
+
+# ---------------------------------------------------------------------- helpers
+def _clockwise(q: _F64) -> _F64:
+    """Order 4 corners clockwise on screen (y down), starting nearest the image origin."""
+    c = q.mean(axis=0)
+    ang = np.arctan2(q[:, 1] - c[1], q[:, 0] - c[0])
+    q = q[np.argsort(ang)]
+    start = int(np.argmin(q.sum(axis=1)))
+    return np.roll(q, -start, axis=0)
+
+
+def _around_detection(quad: _Quad, detections: list[Detection]) -> bool:
+    """True when ``quad`` is centred on a tag already decoded and not smaller than its data area.
+
+    Candidates are read smallest first, so this skips the outline of a decoded tag's quiet
+    zone (or a frame around it) and duplicates of its data area without reading them.
+    """
+    c = quad.corners.mean(axis=0)
+    for d in detections:
+        area = abs(float(cv2.contourArea(d.corners.astype(np.float32))))
+        if quad.area > 0.8 * area and np.linalg.norm(d.corners.mean(axis=0) - c) < 0.15 * math.sqrt(quad.area):
+            return True
+    return False
+
+
+def _same_quad(a: _Quad, b: _Quad) -> bool:
+    if a.polarity != b.polarity:
+        return False
+    ratio = a.area / max(b.area, 1e-9)
+    if not 0.7 < ratio < 1.4:
+        return False
+    d = np.linalg.norm(a.corners.mean(axis=0) - b.corners.mean(axis=0))
+    return bool(d < 0.15 * math.sqrt(max(a.area, b.area)))
+
+
+def _same_tag(a: Detection, b: Detection) -> bool:
+    d = np.linalg.norm(a.corners.mean(axis=0) - b.corners.mean(axis=0))
+    size = np.linalg.norm(a.corners[0] - a.corners[2])
+    return bool(d < 0.2 * size and a.polarity == b.polarity)
+
+
+def _otsu(hist: NDArray[Any]) -> tuple[int, float, float] | None:
+    """Otsu threshold of a 256-bin histogram and the means of the two classes."""
+    hist = hist.astype(np.float64)
+    total = hist.sum()
+    if total < 16:
+        return None
+    levels = np.arange(256, dtype=np.float64)
+    w0 = np.cumsum(hist)
+    s0 = np.cumsum(hist * levels)
+    w1 = total - w0
+    s1 = s0[-1] - s0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m0 = s0 / w0
+        m1 = s1 / w1
+        between = w0 * w1 * (m0 - m1) ** 2
+    between = np.nan_to_num(between, nan=-1.0)
+    t = int(np.argmax(between))
+    if w0[t] <= 0 or w1[t] <= 0:
+        return None
+    return t, float(m0[t]), float(m1[t])
+
+
+def _triangle_fit(pts: NDArray[Any]) -> list[NDArray[np.float64]] | None:
+    """Side chains of a closed contour that is one triangle, or None.
+
+    Corners: the two farthest contour points and the point farthest from their line (paper
+    Sec. 4.1.2), then grown to the largest-area triangle of hull points. At most 5 % of the
+    contour (without the 10 % next to each corner) may lie farther than ``1 px + 1.5 %`` of
+    the side from the line fitted to the side's middle, and the contour area must match the
+    triangle's.
+    """
+    n = len(pts)
+    if n < 8:
+        return None
+    c = pts.reshape(-1, 1, 2).astype(np.int32)
+    perim = float(cv2.arcLength(c, True))
+    flat = pts.reshape(-1, 2)
+    hull = cv2.convexHull(c, returnPoints=False).ravel()
+    if len(hull) < 3:
+        return None
+    hp = flat[hull].astype(np.float64)
+    dd = ((hp[:, None, :] - hp[None, :, :]) ** 2).sum(axis=2)
+    ia, ib = np.unravel_index(int(np.argmax(dd)), dd.shape)
+    pa, pb = hp[ia], hp[ib]
+    ab = pb - pa
+    ic = int(np.argmax(np.abs(ab[0] * (hp[:, 1] - pa[1]) - ab[1] * (hp[:, 0] - pa[0]))))
+    sel = [int(ia), int(ib), ic]
+    # grow to the largest-area hull triangle (a blunt short side can fool the farthest pair)
+    for _ in range(3):
+        changed = False
+        for r in range(3):
+            p0, p1 = hp[sel[(r + 1) % 3]], hp[sel[(r + 2) % 3]]
+            e = p1 - p0
+            best = int(np.argmax(np.abs(e[0] * (hp[:, 1] - p0[1]) - e[1] * (hp[:, 0] - p0[0]))))
+            if best != sel[r]:
+                a_new = abs(e[0] * (hp[best, 1] - p0[1]) - e[1] * (hp[best, 0] - p0[0]))
+                a_old = abs(e[0] * (hp[sel[r], 1] - p0[1]) - e[1] * (hp[sel[r], 0] - p0[0]))
+                if a_new > a_old + 1e-9:
+                    sel[r] = best
+                    changed = True
+        if not changed:
+            break
+    idx = [int(hull[s]) for s in sel]
+    if len(set(idx)) < 3:
+        return None
+    idx.sort()
+    tri = flat[idx].astype(np.float64)
+    t_area = 0.5 * abs(
+        (tri[1, 0] - tri[0, 0]) * (tri[2, 1] - tri[0, 1]) - (tri[1, 1] - tri[0, 1]) * (tri[2, 0] - tri[0, 0])
+    )
+    c_area = abs(float(cv2.contourArea(c)))
+    if t_area <= 0 or abs(c_area - t_area) > 0.2 * t_area + 0.25 * perim:
+        return None
+    chains: list[NDArray[np.float64]] = []
+    far = 0
+    for a, b in ((idx[0], idx[1]), (idx[1], idx[2]), (idx[2], idx[0] + n)):
+        seg = np.take(flat, np.arange(a, b + 1), axis=0, mode="wrap").astype(np.float64)
+        m = len(seg)
+        d = seg[-1] - seg[0]
+        ln = float(np.hypot(d[0], d[1]))
+        if ln < 1:
+            return None
+        if m < 6:
+            # a short side (the base of a needle): the chord; the grey-level fit refines it
+            chains.append(seg[[0, -1]])
+            continue
+        trim = max(1, int(0.15 * m))
+        core = seg[trim : m - trim]
+        # distance of the chain (without its ends) to the line fitted to its core
+        t10 = max(1, int(0.1 * m))
+        mid = seg[t10 : m - t10]
+        ctr = core.mean(axis=0)
+        dc = core - ctr
+        sxx, sxy, syy = float(dc[:, 0] @ dc[:, 0]), float(dc[:, 0] @ dc[:, 1]), float(dc[:, 1] @ dc[:, 1])
+        theta = 0.5 * math.atan2(2 * sxy, sxx - syy)
+        nrm = np.array([-math.sin(theta), math.cos(theta)])
+        dist = np.abs((mid - ctr) @ nrm)
+        far += int((dist > 1.0 + 0.015 * ln).sum())
+        chains.append(core)
+    if far > max(2, 0.05 * n):
+        return None
+    return chains
+
+
+def _bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
+    """One contour running around ``outer`` and, through their closest points, ``hole``."""
+
+    def closest(a: NDArray[Any], b: NDArray[Any]) -> tuple[int, int]:
+        d = ((a[:, None, :].astype(np.int64) - b[None, :, :]) ** 2).sum(axis=2)
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        return int(i), int(j)
+
+    step = max(1, int(math.sqrt(len(outer) * len(hole) / 4096)))
+    i, j = closest(outer[::step], hole[::step])
+    i, j = i * step, j * step
+    lo_i, lo_j = max(i - step, 0), max(j - step, 0)
+    di, dj = closest(outer[lo_i : i + step + 1], hole[lo_j : j + step + 1])
+    i, j = lo_i + di, lo_j + dj
+    return np.concatenate([outer[: i + 1], hole[j:], hole[: j + 1], outer[i:]])
+
+
+def _split_triangles(pts: NDArray[Any], depth: int) -> list[NDArray[np.float64]] | None:
+    """Triangles of a contour that may be several triangles joined at shared vertices.
+
+    A union of triangles meeting at a vertex has concave corners there (convexity defects) on
+    both sides of the shared vertex (or a defect and the bottom of the notch the blur filled):
+    the contour is cut between two such concave points, shortest cut first (or from a concave
+    point to a contour point within 3 px, a pinch), and both halves are fitted again,
+    recursively.
+    """
+    tri = _triangle_fit(pts)
+    if tri is not None:
+        return tri
+    n = len(pts)
+    if depth >= 4 or n < 16:
+        return None
+    c = pts.reshape(-1, 1, 2).astype(np.int32)
+    try:
+        hull = np.sort(cv2.convexHull(c, returnPoints=False).ravel()).reshape(-1, 1)
+        defects = cv2.convexityDefects(c, hull.astype(np.int32))
+    except cv2.error:
+        return None
+    if defects is None:
+        return None
+    dfs = defects.reshape(-1, 4)
+    dfs = dfs[dfs[:, 3] >= 180]  # deeper than 0.7 px
+    if len(dfs) == 0:
+        return None
+    flat = pts.reshape(-1, 2).astype(np.float64)
+    min_sep = max(8, n // 12)
+    far_pts = np.unique(dfs[:, 2])
+    # cuts between two concave points (both sides of a shared vertex), shortest first; then
+    # from a concave point to a contour point at most 3 px away (a pinch the hull hides)
+    cuts: list[tuple[float, int, int]] = []
+    cut_max = max(4.0, 0.2 * math.sqrt(abs(float(cv2.contourArea(c)))))
+    for u in range(len(far_pts)):
+        for v in range(u + 1, len(far_pts)):
+            i, j = int(far_pts[u]), int(far_pts[v])
+            sep = min(abs(i - j), n - abs(i - j))
+            dist = float(np.linalg.norm(flat[i] - flat[j]))
+            if sep >= min_sep and dist <= cut_max:
+                cuts.append((dist, i, j))
+    cuts.sort()
+    idx = np.arange(n)
+    for far in dfs[np.argsort(-dfs[:, 3])][:3, 2]:
+        i = int(far)
+        arc = np.abs(idx - i)
+        arc = np.minimum(arc, n - arc)
+        dist = np.linalg.norm(flat - flat[i], axis=1)
+        dist[arc < min_sep] = np.inf
+        j = int(np.argmin(dist))
+        if dist[j] <= 3.0:
+            cuts.append((float(dist[j]), i, j))
+    for _, i, j in cuts[:5]:
+        a, b = sorted((i, j))
+        left = _split_triangles(pts[a : b + 1], depth + 1)
+        if left is None:
+            continue
+        right = _split_triangles(np.concatenate([pts[b:], pts[: a + 1]]), depth + 1)
+        if right is None:
+            continue
+        return left + right
+    return None
+
+
+def _triangles_by_opening(
+    fg: NDArray[Any], contours: Any, hier: NDArray[Any], index: int
+) -> list[NDArray[np.float64]] | None:
+    """Paper's fallback: open one component with a 3×3 kernel and fit its parts."""
+    x, y, w, h = cv2.boundingRect(contours[index])
+    x0, y0 = max(x - 2, 0), max(y - 2, 0)
+    x1, y1 = min(x + w + 2, fg.shape[1]), min(y + h + 2, fg.shape[0])
+    comp = np.zeros((y1 - y0, x1 - x0), dtype=np.uint8)
+    cv2.drawContours(comp, contours, index, 255, cv2.FILLED, cv2.LINE_8, hier, 1, (-x0, -y0))
+    comp &= fg[y0:y1, x0:x1]
+    opened = cv2.morphologyEx(comp, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    parts, ph = cv2.findContours(opened, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if ph is None:
+        return None
+    out: list[NDArray[np.float64]] = []
+    offset = np.array([x0, y0], dtype=np.float64)
+    for k, c in enumerate(parts):
+        if ph[0][k][3] >= 0:
+            if len(c) >= 8:
+                return None
+            continue
+        if len(c) < 8:
+            continue
+        tri = _triangle_fit(c.reshape(-1, 2))
+        if tri is None:
+            return None
+        out.extend(ch + offset for ch in tri)
+    return out or None
+
+
+def _fit_chains(chains: list[NDArray[np.float64]]) -> tuple[_F64, _F64]:
+    """Least-squares lines (unit normal n, offset c with n·x = c) of point chains."""
+    lens = np.array([len(c) for c in chains])
+    allp = np.concatenate(chains)
+    starts = np.concatenate([[0], np.cumsum(lens)[:-1]])
+    sx = np.add.reduceat(allp[:, 0], starts)
+    sy = np.add.reduceat(allp[:, 1], starts)
+    mx, my = sx / lens, sy / lens
+    rep = np.repeat(np.arange(len(chains)), lens)
+    dx = allp[:, 0] - mx[rep]
+    dy = allp[:, 1] - my[rep]
+    return _lines_from_moments(
+        mx, my, np.add.reduceat(dx * dx, starts), np.add.reduceat(dx * dy, starts),
+        np.add.reduceat(dy * dy, starts),
+    )  # fmt: skip
+
+
+def _lines_from_moments(mx: _F64, my: _F64, sxx: _F64, sxy: _F64, syy: _F64) -> tuple[_F64, _F64]:
+    theta = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # direction of largest spread
+    normal = np.stack([-np.sin(theta), np.cos(theta)], axis=1)
+    offset = normal[:, 0] * mx + normal[:, 1] * my
+    return normal, offset
+
+
+def _lines_through(poly: _F64) -> tuple[_F64, _F64]:
+    """Lines of the sides of one closed polygon (side i from vertex i to i+1)."""
+    a = poly
+    b = np.roll(poly, -1, axis=0)
+    d = b - a
+    normal = np.stack([-d[:, 1], d[:, 0]], axis=1)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return normal, (normal * a).sum(axis=1)
+
+
+def _intersect(n1: _F64, c1: _F64, n2: _F64, c2: _F64) -> _F64:
+    det = n1[:, 0] * n2[:, 1] - n1[:, 1] * n2[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = (c1 * n2[:, 1] - c2 * n1[:, 1]) / det
+        y = (n1[:, 0] * c2 - n2[:, 0] * c1) / det
+    out: _F64 = np.stack([x, y], axis=1)
+    return out
+
+
+def _polygon_vertices(normal: _F64, offset: _F64, m: int) -> _F64:
+    """Vertices of polygons of ``m`` sides each: vertex j = side j−1 ∩ side j."""
+    n = normal.reshape(-1, m, 2)
+    c = offset.reshape(-1, m)
+    prev_n = np.roll(n, 1, axis=1).reshape(-1, 2)
+    prev_c = np.roll(c, 1, axis=1).ravel()
+    v = _intersect(prev_n, prev_c, n.reshape(-1, 2), c.ravel())
+    return v.reshape(-1, m, 2) if m != 4 else v.reshape(-1, 2)
+
+
+def _triangle_vertices(normal: _F64, offset: _F64) -> _F64:
+    """``(T, 3, 2)`` vertices of triangles given by 3 consecutive side lines each.
+
+    Side j of a triangle runs from vertex j to vertex j+1, so vertex j = side j−1 ∩ side j.
+    """
+    return _polygon_vertices(normal, offset, 3).reshape(-1, 3, 2)
+
+
+def _refine_lines(
+    img: NDArray[np.float32], normal: _F64, offset: _F64, verts: _F64, m: int, level: float
+) -> tuple[_F64, _F64]:
+    """Move each side line to the ``level`` crossings of the grey image along its normals.
+
+    ``verts`` ``(P, m, 2)`` are the current polygon vertices; side j runs from vertex j to
+    j+1. Samples 12 positions on the middle 60 % of each side, 13 offsets in ±3 px
+    (bilinear), takes the crossing nearest the line and refits by least squares. Sides with
+    fewer than 3 crossings keep their line.
+    """
+    a = verts.reshape(-1, 2)
+    b = np.roll(verts, -1, axis=1).reshape(-1, 2)
+    s = len(a)
+    finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
+    a = np.where(np.asarray(finite)[:, None], a, 0.0)
+    b = np.where(np.asarray(finite)[:, None], b, 0.0)
+    fr = np.linspace(0.2, 0.8, 12)
+    base = a[:, None, :] + fr[None, :, None] * (b - a)[:, None, :]  # (S, M, 2)
+    # project base points onto the current lines
+    dist = (base * normal[:, None, :]).sum(axis=2) - offset[:, None]
+    base = base - dist[:, :, None] * normal[:, None, :]
+    offs = np.linspace(-3.0, 3.0, 13)
+    samp = base[:, :, None, :] + offs[None, None, :, None] * normal[:, None, None, :]  # (S, M, O, 2)
+    mx = samp[..., 0].astype(np.float32).reshape(1, -1)
+    my = samp[..., 1].astype(np.float32).reshape(1, -1)
+    vals = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    vals = vals.reshape(s, 12, 13).astype(np.float64) - level
+    above = vals > 0
+    change = above[:, :, 1:] != above[:, :, :-1]  # crossing between o and o+1
+    mid = np.abs(0.5 * (offs[1:] + offs[:-1]))
+    score = np.where(change, mid[None, None, :], np.inf)
+    j = np.argmin(score, axis=2)
+    valid = np.isfinite(np.take_along_axis(score, j[..., None], axis=2)[..., 0])
+    v0 = np.take_along_axis(vals, j[..., None], axis=2)[..., 0]
+    v1 = np.take_along_axis(vals, (j + 1)[..., None], axis=2)[..., 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(v1 != v0, v0 / (v0 - v1), 0.5)
+    o = offs[j] + frac * (offs[1] - offs[0])
+    pts = base + o[:, :, None] * normal[:, None, :]
+    w = valid.astype(np.float64)
+    cnt = w.sum(axis=1)
+    good = (cnt >= 3) & finite
+    cnt_safe = np.maximum(cnt, 1)
+    mx_ = (w * pts[..., 0]).sum(axis=1) / cnt_safe
+    my_ = (w * pts[..., 1]).sum(axis=1) / cnt_safe
+    dx = pts[..., 0] - mx_[:, None]
+    dy = pts[..., 1] - my_[:, None]
+    n2, c2 = _lines_from_moments(
+        mx_, my_, (w * dx * dx).sum(axis=1), (w * dx * dy).sum(axis=1), (w * dy * dy).sum(axis=1)
+    )
+    # keep the orientation of the old normal
+    flip = (n2 * normal).sum(axis=1) < 0
+    n2[flip] *= -1
+    c2[flip] *= -1
+    return np.where(good[:, None], n2, normal), np.where(good, c2, offset)
+
+
+def _ls_point(normal: _F64, offset: _F64) -> tuple[_F64, float]:
+    """Least-squares intersection of lines ``n·x = c`` and the largest line distance to it."""
+    a = normal.T @ normal
+    b = normal.T @ offset
+    if abs(float(np.linalg.det(a))) < 1e-9:
+        return np.full(2, np.nan), math.inf
+    x: _F64 = np.asarray(np.linalg.solve(a, b), dtype=np.float64)
+    return x, float(np.abs(normal @ x - offset).max())
+
+
+def _cluster_hypotheses(
+    verts: _F64, normal: _F64, offset: _F64, cap: float, sure: float, tol: float, max_doubtful: int = 4
+) -> list[_F64]:
+    """Point hypotheses from the triangle vertex estimates, most merges first.
+
+    Estimates of different triangles may be one shared point when the least-squares
+    intersection of all their side lines stays within ``tol`` px of every line (estimates at
+    most ``cap`` px apart). Merges of estimates closer than ``sure`` px are always made; up to
+    ``max_doubtful`` farther ones (sharp tips give long error ellipses along the bisector) are
+    tried in and out, and the decoder keeps the first hypothesis that reads and verifies.
+    Each point is the least-squares intersection of its side lines.
+    """
+    v = verts.reshape(-1, 2)
+    n = len(v)
+    tri = np.arange(n) // 3
+    corner = np.arange(n) % 3
+    # the two side lines through each vertex estimate
+    line_ids = np.stack([3 * tri + (corner + 2) % 3, 3 * tri + corner], axis=1)
+    d = np.linalg.norm(v[:, None, :] - v[None, :, :], axis=2)
+    ii, jj = np.nonzero(np.triu(d < cap, 1) & (tri[:, None] != tri[None, :]))
+    order = np.argsort(d[ii, jj], kind="stable")
+    sure_pairs: list[tuple[int, int]] = []
+    doubtful: list[tuple[int, int]] = []
+    for o in order:
+        i, j = int(ii[o]), int(jj[o])
+        ids = line_ids[[i, j]].ravel()
+        _, res = _ls_point(normal[ids], offset[ids])
+        if res > tol:
+            continue
+        (sure_pairs if d[i, j] <= sure else doubtful).append((i, j))
+    doubtful = doubtful[:max_doubtful]
+    subsets = sorted(itertools.product((True, False), repeat=len(doubtful)), key=lambda s: -sum(s))
+    out: list[_F64] = []
+    seen: set[tuple[int, ...]] = set()
+    for subset in subsets:
+        pairs = sure_pairs + [pr for pr, use in zip(doubtful, subset, strict=True) if use]
+        groups = _merge(pairs, n, tri, line_ids, normal, offset, tol)
+        key = tuple(sorted(min(g) for g in groups))
+        if key in seen:
+            continue
+        seen.add(key)
+        pts = []
+        for members in groups:
+            ids = line_ids[members].ravel()
+            x, _ = _ls_point(normal[ids], offset[ids])
+            if not np.isfinite(x).all():
+                break
+            pts.append(x)
+        else:
+            out.append(np.stack(pts))
+    return out
+
+
+def _merge(
+    pairs: list[tuple[int, int]],
+    n: int,
+    tri: NDArray[np.int64],
+    line_ids: NDArray[np.int64],
+    normal: _F64,
+    offset: _F64,
+    tol: float,
+) -> list[list[int]]:
+    """Greedy union of vertex estimates along ``pairs`` (never two corners of one triangle)."""
+    groups: dict[int, list[int]] = {i: [i] for i in range(n)}
+    root = list(range(n))
+    for i, j in pairs:
+        a, b = root[i], root[j]
+        if a == b:
+            continue
+        ga, gb = groups[a], groups[b]
+        if set(tri[ga].tolist()) & set(tri[gb].tolist()):
+            continue
+        if len(ga) + len(gb) > 2:
+            ids = line_ids[ga + gb].ravel()
+            _, res = _ls_point(normal[ids], offset[ids])
+            if res > tol:
+                continue
+        groups[a] = ga + gb
+        for m in gb:
+            root[m] = a
+        del groups[b]
+    return list(groups.values())
+
+
+def _margin(pts: _F64) -> float:
+    """Smallest distance (px) from a point to the line through two other points."""
+    k = len(pts)
+    i, j = np.triu_indices(k, 1)
+    a, b = pts[i], pts[j]
+    d = b - a
+    ln = np.hypot(d[:, 0], d[:, 1])
+    cross = d[:, None, 0] * (pts[None, :, 1] - a[:, None, 1]) - d[:, None, 1] * (pts[None, :, 0] - a[:, None, 0])
+    dist = np.abs(cross) / np.maximum(ln[:, None], 1e-12)
+    idx = np.arange(k)
+    dist[(idx[None, :] == i[:, None]) | (idx[None, :] == j[:, None])] = np.inf
+    return float(dist.min())
+
+
+def _homography(src: _F64, dst: _F64) -> _F64 | None:
+    """Least-squares homography (normalised DLT) mapping ``src`` onto ``dst``; None if degenerate."""
+    hmat, _ = cv2.findHomography(src.astype(np.float64), dst.astype(np.float64), 0)
+    if hmat is None or not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
+        return None
+    out: _F64 = hmat / hmat[2, 2]
+    return out
+
+
+def _apply_h(hmat: _F64, pts: _F64) -> _F64:
+    ph = np.c_[pts, np.ones(len(pts))] @ hmat.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out: _F64 = ph[:, :2] / ph[:, 2:3]
+    return out
