@@ -270,6 +270,25 @@ class Detector:
         self._ks = frozenset(lookup.ks)
         self.last_rejections: list[Rejected] = []
 
+    @classmethod
+    def from_database(cls, path_or_url: str | None = None, dictionary: str | None = None, **params: Any) -> Detector:
+        """A detector whose lookup is loaded once from a database (or one named dictionary).
+
+        ``path_or_url`` as ``--db`` (None: ``$OTTAG_DB`` or ``./ottag.sqlite``). The database
+        is read here only; :meth:`detect` never touches it. With ``dictionary`` only its
+        members decode, and ``Detection.tag`` is the member's number.
+        """
+        # Imported here: the decoder core depends on the lookup interface, not on the ORM.
+        from .db import open_database
+        from .dictionary import dictionary_lookup
+
+        db = open_database(path_or_url)
+        try:
+            lookup = dictionary_lookup(db, dictionary)
+        finally:
+            db.close()
+        return cls(lookup, **params)
+
     # ------------------------------------------------------------------ public API
     def detect(self, image: object) -> list[Detection]:
         """Decode all tags in an image; rejected candidates are kept in ``last_rejections``."""
