@@ -454,6 +454,78 @@ def render_cmd(ident: str, out: Path, px: int, polarity: str, db_target: str | N
     click.echo(f"{out}: k = {geom.k}, {polarity}, printed MP {geom.mp_unit:.4f} × tag size")
 
 
+# ----------------------------------------------------------------------------- decode
+@cli.command("decode")
+@click.argument("images", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags decode; report tag numbers.")
+@click.option("--json", "as_json", is_flag=True, help="JSON Lines: one object per image (see README).")
+@click.option("--draw", "draw_dir", type=click.Path(path_type=Path, file_okay=False), default=None,
+              help="Write each image with outlines, points, labels and IDs into DIR.")
+@click.option("--camera", type=click.Path(path_type=Path), default=None,
+              help="Camera intrinsics (JSON camera_matrix/dist_coeffs or fx,fy,cx,cy; or OpenCV YAML).")
+@click.option("--tag-size", default=None, help=_TAG_SIZE_HELP + "; with --camera gives the pose (in mm).")
+@click.option("--no-verify", is_flag=True, help="Decide by order type alone (the paper's rule), no geometric check.")
+@_db_options
+@_quiet_option
+def decode_cmd(
+    images: tuple[Path, ...],
+    dictionary: str | None,
+    as_json: bool,
+    draw_dir: Path | None,
+    camera: Path | None,
+    tag_size: str | None,
+    no_verify: bool,
+    db_target: str | None,
+    quiet: bool,
+) -> None:
+    """Find Order Type Tags in IMAGE files; print IDs, points, corners, homography (and pose)."""
+    from .decode_io import decode_file, load_camera
+    from .decoder import Detector
+    from .dictionary import dictionary_lookup, neighbour_members
+    from .errors import UsageError
+    from .queries import order_type_numbers
+    from .sheet import parse_length
+
+    if (camera is None) != (tag_size is None):
+        raise UsageError("--camera and --tag-size go together (pose needs both)")
+    cam = load_camera(camera) if camera is not None else None
+    size_mm = parse_length(tag_size) if tag_size is not None else None
+    if draw_dir is not None:
+        draw_dir.mkdir(parents=True, exist_ok=True)
+    with _database(db_target, quiet) as db:
+        detector = Detector(dictionary_lookup(db, dictionary), verify=not no_verify)
+        numbers = order_type_numbers(db)
+        near = neighbour_members(db, dictionary) if dictionary else {}
+    failed = 0
+    for path in images:
+        record = decode_file(detector, path, camera=cam, tag_size=size_mm, draw_dir=draw_dir, numbers=numbers)
+        if dictionary:
+            for r in record.get("rejections", []):
+                r["one_flip_from_tag"] = near.get(r["lambda"]) if r["lambda"] else None
+        if "error" in record:
+            failed += 1
+            _note(f"error: {record['error']}")
+        if as_json:
+            click.echo(json.dumps(record))
+            continue
+        if "error" in record:
+            continue
+        dets = record["detections"]
+        click.echo(f"{path}: {len(dets)} tag(s), {record['rejected']} rejected candidate(s)")
+        for d in dets:
+            tag = f" tag {d['tag']}" if d["tag"] is not None else ""
+            pose = ""
+            if "pose" in d:
+                t = d["pose"]["tvec"]
+                pose = f" t = ({t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}) mm"
+            click.echo(
+                f"  k={d['k']} #{d['order_type']} number {d['number']}{tag} {d['polarity']} "
+                f"margin {d['margin_px']:.2f} px{pose}  {d['lambda']}"
+            )
+    if failed:
+        raise _CliError(f"{failed} of {len(images)} image(s) could not be read")
+
+
 # ----------------------------------------------------------------------------- dictionary
 @cli.group("dictionary", cls=_Group)
 def dictionary_group() -> None:

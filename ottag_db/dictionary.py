@@ -48,6 +48,7 @@ __all__ = [
     "import_dictionary",
     "dictionary_lookup",
     "nearest_member",
+    "neighbour_members",
 ]
 
 ProgressCallback = Callable[[int, int], None]
@@ -497,3 +498,22 @@ def nearest_member(db: Database, name: str, lambda_txt: str) -> int | None:
             .where(DictionaryTag.dictionary_id == d.id, FlipEdgeRow.source_id == ot)
         ).scalar_one_or_none()
     return None if row is None else int(row)
+
+
+def neighbour_members(db: Database, name: str) -> dict[str, int]:
+    """For every order type one flip away from a member: canonical λ → lowest member number.
+
+    Loaded once so a decoder can say which member a rejected reading was one flip from.
+    """
+    with db.session() as s:
+        d = s.execute(select(Dictionary).where(Dictionary.name == name)).scalar_one_or_none()
+        if d is None:
+            raise NotFoundError(f"no dictionary named {name!r}")
+        rows = s.execute(
+            select(OrderType.canonical_lambda, func.min(DictionaryTag.number))
+            .join(FlipEdgeRow, FlipEdgeRow.source_id == OrderType.id)
+            .join(DictionaryTag, DictionaryTag.order_type_id == FlipEdgeRow.target_id)
+            .where(DictionaryTag.dictionary_id == d.id, FlipEdgeRow.source_id != FlipEdgeRow.target_id)
+            .group_by(OrderType.canonical_lambda)
+        ).all()
+    return {str(t): int(n) for t, n in rows}

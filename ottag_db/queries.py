@@ -29,6 +29,7 @@ __all__ = [
     "identify_points",
     "list_order_types",
     "parse_points",
+    "order_type_numbers",
 ]
 
 #: The v values of the paper's Table 7: 0.5, 1.0, …, 9.0 (grid units).
@@ -338,3 +339,9 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
         id=found,
         number=number,
     )
+
+
+def order_type_numbers(db: Database) -> dict[int, int | None]:
+    """Database id → universal number of every order type."""
+    with db.session() as s:
+        return {int(i): n for i, n in s.execute(select(OrderType.id, OrderType.number)).all()}
