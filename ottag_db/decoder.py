@@ -1075,6 +1075,8 @@ def _margin(pts: _F64) -> float:
 
 def _homography(src: _F64, dst: _F64) -> _F64 | None:
     """Least-squares homography (normalised DLT) mapping ``src`` onto ``dst``; None if degenerate."""
+    if src.shape[0] < 4:  # k = 3: three points do not determine a homography
+        return None
     hmat, _ = cv2.findHomography(src.astype(np.float64), dst.astype(np.float64), 0)
     if hmat is None or not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
         return None
