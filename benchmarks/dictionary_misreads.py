@@ -109,8 +109,10 @@ def main() -> None:
 
         kinds: Counter[str] = Counter()
         levels = [(float(a), float(b), int(c), float(d)) for a, b, c, d in (x.split(":") for x in args.levels)]
-        print(f"{'blur':>5} {'noise':>5} {'jpeg':>4} {'px':>4} {'views':>6} {'correct':>8} "
-              f"{'misread/complete':>17} {'misread/D2':>11} {'rejected by D2':>15}")
+        print(
+            f"{'blur':>5} {'noise':>5} {'jpeg':>4} {'px':>4} {'views':>6} {'correct':>8} "
+            f"{'misread/complete':>17} {'misread/D2':>11} {'rejected by D2':>15}"
+        )
         totals = np.zeros(4, dtype=int)
         for blur, noise, quality, width in levels:
             counts = np.zeros(5, dtype=int)  # views, correct, mis_full, mis_d2, converted
@@ -135,13 +137,17 @@ def main() -> None:
                     where = "other k" if d.k != entry.k else "same k"
                     kinds[where + (", accepted by D2" if d.lambda_ in accepted_d2 else ", rejected by D2")] += 1
             share = counts[4] / counts[2] if counts[2] else float("nan")
-            print(f"{blur:>5.1f} {noise:>5.0f} {quality:>4d} {width:>4.0f} {counts[0]:>6d} {counts[1]:>8d} "
-                  f"{counts[2]:>17d} {counts[3]:>11d} {share:>14.1%}")
+            print(
+                f"{blur:>5.1f} {noise:>5.0f} {quality:>4d} {width:>4.0f} {counts[0]:>6d} {counts[1]:>8d} "
+                f"{counts[2]:>17d} {counts[3]:>11d} {share:>14.1%}"
+            )
             totals += counts[[0, 2, 3, 4]]
         print("kinds of misreads (complete lookup):", dict(kinds))
-        print(f"all levels: {totals[0]} views; misread rate complete {totals[1] / totals[0]:.2%}, "
-              f"D = 2 {totals[2] / totals[0]:.2%}; D = 2 turns {totals[3] / max(totals[1], 1):.1%} "
-              "of the complete dictionary's misreads into rejections (target >= 90 %)")
+        print(
+            f"all levels: {totals[0]} views; misread rate complete {totals[1] / totals[0]:.2%}, "
+            f"D = 2 {totals[2] / totals[0]:.2%}; D = 2 turns {totals[3] / max(totals[1], 1):.1%} "
+            "of the complete dictionary's misreads into rejections (target >= 90 %)"
+        )
 
 
 if __name__ == "__main__":

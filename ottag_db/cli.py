@@ -376,7 +376,9 @@ _TAG_SIZE_HELP = (
 @click.option("--min-mp", type=click.FloatRange(min=0), default=None, help="Only MP >= V (grid units, as Table 7).")
 @click.option("--matchable", is_flag=True, help="Only unique-minimum order types (point matching).")
 @click.option("--ids", "ids", multiple=True, metavar="ID", help="Only these IDs (k:digits or database id; repeatable).")
-@click.option("--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags, labelled with their numbers.")
+@click.option(
+    "--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags, labelled with their numbers."
+)
 @click.option("--polarity", type=click.Choice(["normal", "inverted", "both"]), default="normal", show_default=True)
 @click.option("--tag-size", default="50mm", show_default=True, help=_TAG_SIZE_HELP + ".")
 @click.option("--quiet-zone", default=None, help="White border around the data area [default: 0.25 × tag size].")
@@ -457,12 +459,23 @@ def render_cmd(ident: str, out: Path, px: int, polarity: str, db_target: str | N
 # ----------------------------------------------------------------------------- decode
 @cli.command("decode")
 @click.argument("images", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags decode; report tag numbers.")
+@click.option(
+    "--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags decode; report tag numbers."
+)
 @click.option("--json", "as_json", is_flag=True, help="JSON Lines: one object per image (see README).")
-@click.option("--draw", "draw_dir", type=click.Path(path_type=Path, file_okay=False), default=None,
-              help="Write each image with outlines, points, labels and IDs into DIR.")
-@click.option("--camera", type=click.Path(path_type=Path), default=None,
-              help="Camera intrinsics (JSON camera_matrix/dist_coeffs or fx,fy,cx,cy; or OpenCV YAML).")
+@click.option(
+    "--draw",
+    "draw_dir",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=None,
+    help="Write each image with outlines, points, labels and IDs into DIR.",
+)
+@click.option(
+    "--camera",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Camera intrinsics (JSON camera_matrix/dist_coeffs or fx,fy,cx,cy; or OpenCV YAML).",
+)
 @click.option("--tag-size", default=None, help=_TAG_SIZE_HELP + "; with --camera gives the pose (in mm).")
 @click.option("--no-verify", is_flag=True, help="Decide by order type alone (the paper's rule), no geometric check.")
 @_db_options

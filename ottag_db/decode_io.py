@@ -17,7 +17,7 @@ from .errors import DecodeError, UsageError
 from .pose import estimate_pose
 from .render import tag_placement
 
-__all__ = ["Camera", "load_camera", "read_image", "decode_file", "detection_json", "draw_detections"]
+__all__ = ["Camera", "decode_file", "detection_json", "draw_detections", "load_camera", "read_image"]
 
 
 @dataclass(frozen=True)
@@ -43,7 +43,9 @@ def load_camera(path: str | os.PathLike[str]) -> Camera:
             fs.release()
         if k is None or k.shape != (3, 3):
             raise UsageError(f"{p}: no 3×3 camera_matrix in the OpenCV file")
-        return Camera(np.asarray(k, dtype=np.float64), np.zeros(5) if d is None else np.asarray(d, dtype=np.float64).ravel())
+        return Camera(
+            np.asarray(k, dtype=np.float64), np.zeros(5) if d is None else np.asarray(d, dtype=np.float64).ravel()
+        )
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -60,7 +62,7 @@ def load_camera(path: str | os.PathLike[str]) -> Camera:
         raise UsageError(f"{p}: needs camera_matrix (3×3) or fx, fy, cx, cy ({exc})") from exc
     if k.shape != (3, 3):
         raise UsageError(f"{p}: camera_matrix must be 3×3")
-    return Camera(k, dist)
+    return Camera(np.asarray(k, dtype=np.float64), dist)
 
 
 def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
@@ -130,7 +132,7 @@ def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path)
         cv2.polylines(canvas, [quad], True, (0, 200, 0), 2, cv2.LINE_AA)
         cv2.circle(canvas, tuple(int(v) for v in quad[0]), 5, (0, 0, 255), -1)
         for label, (x, y) in enumerate(d.points):
-            c = (int(round(x)), int(round(y)))
+            c = (round(x), round(y))
             cv2.circle(canvas, c, 3, (255, 80, 0), -1, cv2.LINE_AA)
             cv2.putText(canvas, str(label), (c[0] + 4, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 80, 0), 1)
         cx, cy = d.center

@@ -20,7 +20,6 @@ from .db import Database
 from .errors import DictionaryError, NotFoundError, UsageError
 from .flipgraph import flip_neighbours
 from .lookup import LookupEntry, MemoryLookup
-from .numbering import COMPLETE_COUNTS, assign_numbers
 from .models import (
     Dictionary,
     DictionaryTag,
@@ -30,25 +29,26 @@ from .models import (
     Realization,
     coordinates_from_blob,
 )
+from .numbering import COMPLETE_COUNTS, assign_numbers
 from .tags import TagRecord, load_lookup, select_tags
 
 __all__ = [
     "COMPLETE_COUNTS",
-    "DictionaryOptions",
-    "DictionaryMember",
     "DictionaryInfo",
+    "DictionaryMember",
+    "DictionaryOptions",
     "assign_numbers",
-    "ensure_flip_graph",
-    "neighbours",
     "create_dictionary",
-    "list_dictionaries",
-    "get_dictionary",
     "delete_dictionary",
-    "export_dictionary",
-    "import_dictionary",
     "dictionary_lookup",
+    "ensure_flip_graph",
+    "export_dictionary",
+    "get_dictionary",
+    "import_dictionary",
+    "list_dictionaries",
     "nearest_member",
     "neighbour_members",
+    "neighbours",
 ]
 
 ProgressCallback = Callable[[int, int], None]
@@ -82,7 +82,9 @@ def ensure_flip_graph(db: Database, ks: Sequence[int], *, progress: ProgressCall
                 continue
             _require_complete(s, k)
             rows = s.execute(
-                select(OrderType.id, OrderType.canonical_lambda, Realization.coordinates, Realization.canonical_labeling)
+                select(
+                    OrderType.id, OrderType.canonical_lambda, Realization.coordinates, Realization.canonical_labeling
+                )
                 .join(Realization, Realization.order_type_id == OrderType.id)
                 .where(OrderType.k == k)
                 .order_by(OrderType.canonical_lambda, Realization.mp.desc(), Realization.id)
@@ -92,9 +94,9 @@ def ensure_flip_graph(db: Database, ks: Sequence[int], *, progress: ProgressCall
                 first.setdefault(ot_id, (text, blob, labeling))
             ot_ids = list(first)
             texts = [first[i][0] for i in ot_ids]
-            pts = np.stack(
-                [coordinates_from_blob(first[i][1])[[int(c) for c in first[i][2]]] for i in ot_ids]
-            ).astype(np.float64)
+            pts = np.stack([coordinates_from_blob(first[i][1])[[int(c) for c in first[i][2]]] for i in ot_ids]).astype(
+                np.float64
+            )
             edges = flip_neighbours(pts, texts, progress=progress) if k >= 4 else []
             unique = {(ot_ids[e.source], ot_ids[e.target], ",".join(map(str, e.triple))) for e in edges}
             if unique:
@@ -306,7 +308,9 @@ def list_dictionaries(db: Database) -> list[tuple[str, int, int, datetime]]:
     """``(name, min_flip_distance, tags, created_at)`` of every dictionary, by name."""
     with db.session() as s:
         rows = s.execute(
-            select(Dictionary.name, Dictionary.min_flip_distance, func.count(DictionaryTag.number), Dictionary.created_at)
+            select(
+                Dictionary.name, Dictionary.min_flip_distance, func.count(DictionaryTag.number), Dictionary.created_at
+            )
             .outerjoin(DictionaryTag, DictionaryTag.dictionary_id == Dictionary.id)
             .group_by(Dictionary.id)
             .order_by(Dictionary.name)
@@ -444,7 +448,8 @@ def import_dictionary(db: Database, text: str, *, source: str = "<input>", name:
             ).scalar_one_or_none()
             if ot_id is None:
                 raise DictionaryError(
-                    f"{source}: tag {number}: order type {text_id} is not in the database; import the bundled data first"
+                    f"{source}: tag {number}: order type {text_id} is not in the database; "
+                    "import the bundled data first"
                 )
             s.add(DictionaryTag(dictionary_id=d.id, number=number, order_type_id=ot_id, polarity=polarity))
     return get_dictionary(db, dict_name)

@@ -19,7 +19,7 @@ from .render import Polarity, TagGeometry, build_tag_geometries, render_raster, 
 from .sheet import SheetOptions, SheetReport, SheetTag, write_tag_sheet
 from .tags import TagRecord, select_tags
 
-__all__ = ["TagFilter", "short_id", "tag_geometries", "export_sheet", "render_tag", "resolve_tag"]
+__all__ = ["TagFilter", "export_sheet", "render_tag", "resolve_tag", "short_id", "tag_geometries"]
 
 ProgressCallback = Callable[[int, int], None]
 

@@ -69,7 +69,9 @@ def _upper_orientations(pts: NDArray[np.float64]) -> tuple[NDArray[np.float64], 
     return d, first, second
 
 
-def _lambda_from_upper(d: NDArray[np.float64], first: NDArray[np.intp], second: NDArray[np.intp], n: int) -> NDArray[np.int8]:
+def _lambda_from_upper(
+    d: NDArray[np.float64], first: NDArray[np.intp], second: NDArray[np.intp], n: int
+) -> NDArray[np.int8]:
     upper = (d < 0).sum(axis=2, dtype=np.int8)
     lam = np.zeros((d.shape[0], n, n), dtype=np.int8)
     lam[:, first, second] = upper

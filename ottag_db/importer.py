@@ -17,10 +17,10 @@ from sqlalchemy.dialects import postgresql
 
 from .canonical import canonicalize_lambdas, mirror_lambdas
 from .db import Database
-from .numbering import assign_numbers
 from .errors import GeneralPositionError, PointFileError
 from .geometry import analyse_point_sets, check_general_position
 from .models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
+from .numbering import assign_numbers
 from .pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
 
 __all__ = ["ImportReport", "ProgressCallback", "import_point_file", "import_point_files"]
@@ -107,7 +107,15 @@ def _upsert_order_types(conn: Connection, k: int, data: _ChunkData) -> dict[str,
     for i, text in enumerate(data.texts):
         if text not in rows:
             mirror = data.mirror_texts[i]
-            rows[text] = (k, text, bool(data.minimal[i] == 1), int(data.minimal[i]), int(data.hulls[i]), mirror, mirror != text)
+            rows[text] = (
+                k,
+                text,
+                bool(data.minimal[i] == 1),
+                int(data.minimal[i]),
+                int(data.hulls[i]),
+                mirror,
+                mirror != text,
+            )
     keys = list(rows)
     ids: dict[str, int] = {}
     if conn.dialect.name == "sqlite":
@@ -156,9 +164,7 @@ def _insert_realizations(
     blobs = coordinates_to_blobs(points)
     idx = range(points.shape[0]) if keep is None else np.flatnonzero(keep).tolist()
     mp = data.mp.tolist()
-    rows = [
-        (ids[data.texts[i]], source_id, first + i, mirrored, blobs[i], mp[i], data.labelings[i]) for i in idx
-    ]
+    rows = [(ids[data.texts[i]], source_id, first + i, mirrored, blobs[i], mp[i], data.labelings[i]) for i in idx]
     if not rows:
         return 0
     if conn.dialect.name == "sqlite":

@@ -28,8 +28,8 @@ __all__ = [
     "get_order_type",
     "identify_points",
     "list_order_types",
-    "parse_points",
     "order_type_numbers",
+    "parse_points",
 ]
 
 #: The v values of the paper's Table 7: 0.5, 1.0, …, 9.0 (grid units).

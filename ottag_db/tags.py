@@ -19,7 +19,7 @@ from .lookup import LookupEntry, MemoryLookup
 from .models import LayoutRow, OrderType, Realization, coordinates_from_blob
 from .render import tag_placements
 
-__all__ = ["TagRecord", "ensure_layouts", "select_tags", "load_lookup"]
+__all__ = ["TagRecord", "ensure_layouts", "load_lookup", "select_tags"]
 
 ProgressCallback = Callable[[int, int], None]
 
@@ -84,7 +84,9 @@ def ensure_layouts(db: Database, *, progress: ProgressCallback | None = None, ch
                             min_angle_deg=float(lay.min_angle_deg),
                             min_side=float(lay.min_side),
                             min_gap=None if lay.min_gap is None else float(lay.min_gap),
-                            min_shared_gap_deg=None if lay.min_shared_gap_deg is None else float(lay.min_shared_gap_deg),
+                            min_shared_gap_deg=None
+                            if lay.min_shared_gap_deg is None
+                            else float(lay.min_shared_gap_deg),
                             score=float(lay.score),
                             placement=json.dumps(np.round(m, 12).tolist()),
                             printed_mp_unit=float(pm),

@@ -54,10 +54,15 @@ def test_decode_json_contract(runner: CliRunner, dbfile: Path, fig4_png: Path, t
 
 def test_decode_inverted_and_pose(runner: CliRunner, dbfile: Path, tmp_path: Path) -> None:
     img = tmp_path / "inv.png"
-    assert runner.invoke(cli, ["render", "--db", str(dbfile), TABLE9_TEXT, str(img), "--polarity", "inverted"]).exit_code == 0
+    assert (
+        runner.invoke(cli, ["render", "--db", str(dbfile), TABLE9_TEXT, str(img), "--polarity", "inverted"]).exit_code
+        == 0
+    )
     cam = tmp_path / "cam.json"
     cam.write_text(json.dumps({"fx": 800, "fy": 800, "cx": 300, "cy": 300}))
-    res = runner.invoke(cli, ["decode", "--db", str(dbfile), "--json", "--camera", str(cam), "--tag-size", "5cm", str(img)])
+    res = runner.invoke(
+        cli, ["decode", "--db", str(dbfile), "--json", "--camera", str(cam), "--tag-size", "5cm", str(img)]
+    )
     assert res.exit_code == 0, res.output
     (det,) = json.loads(res.stdout)["detections"]
     assert det["polarity"] == "inverted"

@@ -44,7 +44,9 @@ def test_universal_numbers_are_ranks_and_stable(mdb: Path, otdb_dir: Path, tmp_p
         for k in (8, 7, 6, 5, 4, 3):
             import_point_file(other, otdb_dir / f"otypes{k:02d}.b08", with_mirrors=True)
         with other.session() as s:
-            again = {(k, t): n for k, t, n in s.execute(select(OrderType.k, OrderType.canonical_lambda, OrderType.number))}
+            again = {
+                (k, t): n for k, t, n in s.execute(select(OrderType.k, OrderType.canonical_lambda, OrderType.number))
+            }
     finally:
         other.close()
     assert again == {(k, t): n for k, t, n in rows}
@@ -140,7 +142,11 @@ def test_bad_dictionary_inputs(runner: CliRunner, mdb: Path, tmp_path: Path) -> 
     bad.write_text("{not json")
     res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(bad)])
     assert res.exit_code == 1 and "not JSON" in res.stderr
-    bad.write_text(json.dumps({"name": "z", "tags": [{"number": 0, "lambda": "5:0321000321100322100332101", "polarity": "normal"}]}))
+    bad.write_text(
+        json.dumps(
+            {"name": "z", "tags": [{"number": 0, "lambda": "5:0321000321100322100332101", "polarity": "normal"}]}
+        )
+    )
     res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(bad)])
     assert res.exit_code != 0
     res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(tmp_path / "missing.json")])

@@ -76,7 +76,15 @@ def test_select_tags_and_lookup(laid_out_db: Path) -> None:
         assert len(lookup) == 1 + 2 + 3 + 20 + 242 + 6405
         entry = lookup.get(TABLE9_TEXT)
         assert entry is not None and entry.unique_min
-        assert entry.realizations[0].tolist() == [[47, 175], [149, 206], [129, 178], [206, 159], [214, 127], [176, 49], [42, 144]]
+        assert entry.realizations[0].tolist() == [
+            [47, 175],
+            [149, 206],
+            [129, 178],
+            [206, 159],
+            [214, 127],
+            [176, 49],
+            [42, 144],
+        ]
     finally:
         db.close()
 
@@ -85,7 +93,21 @@ def test_export_sheet_dimensions(runner: CliRunner, db_copy: Path, tmp_path: Pat
     out = tmp_path / "sheet.pdf"
     res = runner.invoke(
         cli,
-        ["export", "--db", str(db_copy), "-q", "--k", "6", "--polarity", "both", "--tag-size", "3cm", "--page", "Letter", str(out)],
+        [
+            "export",
+            "--db",
+            str(db_copy),
+            "-q",
+            "--k",
+            "6",
+            "--polarity",
+            "both",
+            "--tag-size",
+            "3cm",
+            "--page",
+            "Letter",
+            str(out),
+        ],
     )
     assert res.exit_code == 0, res.output
     assert "40 tags" in res.stdout
@@ -133,7 +155,10 @@ def test_render_png_and_svg(runner: CliRunner, db_copy: Path, tmp_path: Path) ->
     assert img.shape == (300, 300)  # 200 px data area + 2 × 50 px quiet zone
     assert img[5, 5] == 255 and img[60, 60] == 0
     inv = tmp_path / "i.png"
-    assert runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(inv), "--polarity", "inverted"]).exit_code == 0
+    assert (
+        runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(inv), "--polarity", "inverted"]).exit_code
+        == 0
+    )
     assert cv2.imread(str(inv), cv2.IMREAD_GRAYSCALE)[5, 5] == 0
     svg = tmp_path / "t.svg"
     assert runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(svg)]).exit_code == 0

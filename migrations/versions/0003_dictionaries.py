@@ -60,10 +60,16 @@ def upgrade() -> None:
         sa.Column("polarity", sa.String(10), nullable=False),
         sa.CheckConstraint("polarity IN ('normal', 'inverted')", name=op.f("ck_dictionary_tags_polarity")),
         sa.ForeignKeyConstraint(
-            ["dictionary_id"], ["dictionaries.id"], name="fk_dictionary_tags_dictionary_id_dictionaries", ondelete="CASCADE"
+            ["dictionary_id"],
+            ["dictionaries.id"],
+            name="fk_dictionary_tags_dictionary_id_dictionaries",
+            ondelete="CASCADE",
         ),
         sa.ForeignKeyConstraint(
-            ["order_type_id"], ["order_types.id"], name="fk_dictionary_tags_order_type_id_order_types", ondelete="CASCADE"
+            ["order_type_id"],
+            ["order_types.id"],
+            name="fk_dictionary_tags_order_type_id_order_types",
+            ondelete="CASCADE",
         ),
         sa.PrimaryKeyConstraint("dictionary_id", "number", name="pk_dictionary_tags"),
         sa.UniqueConstraint(
