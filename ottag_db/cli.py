@@ -363,6 +363,61 @@ def list_cmd(
     _note(f"{len(rows)} order type(s)", quiet)
 
 
+# ----------------------------------------------------------------------------- generate
+class _StageProgress:
+    """Progress bars for ``progress(stage, done, total)`` callbacks: one bar per stage."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.stage: str | None = None
+        self.bar: _Progress | None = None
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if stage != self.stage:
+            self.close()
+            self.stage = stage
+            self.bar = _Progress(stage, self.quiet)
+        assert self.bar is not None
+        self.bar(done, total)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
+@cli.command("generate")
+@click.option("--max-k", type=click.IntRange(3, 8), default=8, show_default=True, help="Largest number of points.")
+@click.option("--out", "out_dir", type=click.Path(path_type=Path, file_okay=False), default=Path("data"),
+              show_default=True, help="Folder for ottag-kNN.b08 files and manifest.json.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Same seed, same files.")
+@click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Worker processes.")
+@_quiet_option
+def generate_cmd(max_k: int, out_dir: Path, seed: int, jobs: int, quiet: bool) -> None:
+    """Enumerate every order type of 3 … MAX_K points and realize each on the 8-bit grid with maximal MP.
+
+    Writes one set per reflection pair (drop-in replacements of Aichholzer's otypesNN.b08)
+    plus a manifest; `ottag-db import OUT/ottag-kNN.b08 --with-mirrors` loads them.
+    """
+    from .generate import generate_database
+
+    bar = _StageProgress(quiet)
+    try:
+        rep = generate_database(max_k=max_k, out_dir=out_dir, seed=seed, jobs=jobs, progress=bar)
+    finally:
+        bar.close()
+    for k in sorted(rep.records):
+        click.echo(
+            f"k = {k}: {rep.records[k]} order types up to reflection ({rep.with_mirrors[k]} with mirrors), "
+            f"min MP {rep.mp_min[k]:.2f} -> {rep.files[k]}"
+        )
+    click.echo(f"manifest: {rep.manifest}")
+    click.echo(
+        f"time: {rep.seconds['total']:.0f} s (enumerate {rep.seconds['enumerate']:.0f} s, "
+        f"realize {rep.seconds['realize']:.0f} s)"
+    )
+
+
 # ----------------------------------------------------------------------------- export / render
 _TAG_SIZE_HELP = (
     "Side of the black data area (the square you measure with a ruler and give to the pose "

@@ -38,6 +38,8 @@ OFFICIAL_RECORD_COUNTS: dict[int, int] = {
 }
 
 _OFFICIAL_NAME = re.compile(r"^otypes(\d{2})\.b(08|16)$")
+# Files written by `ottag-db generate`: n from the name, no official record count.
+_OTTAG_NAME = re.compile(r"^ottag-k(\d{2})\.b(08|16)$")
 _DTYPES: dict[int, np.dtype[Any]] = {8: np.dtype("<u1"), 16: np.dtype("<u2")}
 
 
@@ -66,7 +68,8 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
     """Validate a point-set file's name and size and return its layout.
 
     ``n`` (points per record) comes from the argument or from an official name
-    ``otypesNN.b08|b16``; the coordinate width from the suffix ``.b08`` / ``.b16``.
+    ``otypesNN.b08|b16`` (or ``ottag-kNN.b08|b16`` as written by ``ottag-db generate``);
+    the coordinate width from the suffix ``.b08`` / ``.b16``.
     Raises :class:`PointFileError` naming the file and the fix.
     """
     p = Path(path)
@@ -86,7 +89,8 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
         )
     match = _OFFICIAL_NAME.match(p.name.lower())
     official = match is not None
-    name_n = int(match.group(1)) if match else None
+    ours = _OTTAG_NAME.match(p.name.lower())
+    name_n = int(match.group(1)) if match else int(ours.group(1)) if ours else None
     if n is None:
         if name_n is None:
             raise PointFileError(f"{p}: cannot tell the number of points per record from the name; pass --points N")
