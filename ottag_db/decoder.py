@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, fields
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, fields, replace
 from typing import Any, Literal
 
 import cv2
@@ -39,6 +40,7 @@ REJECTION_REASONS: dict[str, str] = {
     "unknown_id": "the order type is not in the lookup",
     "verification": "no stored realization maps onto the points within the reprojection bound",
     "quad_inconsistent": "the data-area corners do not map to a parallelogram of the tag plane",
+    "polarity_not_in_dictionary": "the order type is a dictionary member, but not in the detected polarity",
 }
 
 _F64 = NDArray[np.float64]
@@ -53,7 +55,8 @@ class Detection:
 
     - ``lambda_``: canonical ID ``k:digits``; ``k`` the number of points;
     - ``order_type_id`` / ``tag``: from the lookup entry (None for unknown order types,
-      reported only with ``allow_unknown=True``);
+      reported only with ``allow_unknown=True``); when the entry's ``extra["tags"]`` maps
+      polarity → number (a dictionary lookup), ``tag`` is the number of the detected polarity;
     - ``polarity``: ``"normal"`` (white triangles on a black data area) or ``"inverted"``;
     - ``points``: ``(k, 2)`` detected points, row ``l`` = the point with canonical label ``l``;
     - ``model_points``: ``(k, 2)`` the matched stored realization in canonical order (file/grid
@@ -131,7 +134,10 @@ class DetectorParams:
       cannot flip on a margin this large);
     - ``verify``: check the reading against the stored realizations (see :class:`Detector`);
     - ``max_reproj_px`` / ``max_reproj_rel``: reprojection bound
-      ``max(max_reproj_px, max_reproj_rel * sqrt(data-area area))`` on the largest point error;
+      ``max(max_reproj_px, max_reproj_rel * sqrt(data-area area))`` on the largest distance
+      from a mapped realization point to a side line through its detected point (the
+      homography is fitted to these point–line incidences, so a sharp tip, well measured
+      across its sides but not along its axis, is judged across its sides);
     - ``check_quad`` / ``max_quad_error``: the data-area corners mapped back to the tag plane
       must form a parallelogram: ``|g0 − g1 + g2 − g3|`` at most ``max_quad_error`` times the
       mean side (the tag is placed by an affine map, so the square becomes a parallelogram);
@@ -276,7 +282,9 @@ class Detector:
 
         ``path_or_url`` as ``--db`` (None: ``$OTTAG_DB`` or ``./ottag.sqlite``). The database
         is read here only; :meth:`detect` never touches it. With ``dictionary`` only its
-        members decode, and ``Detection.tag`` is the member's number.
+        members decode, and ``Detection.tag`` is the member's number for the detected
+        polarity; a member only held in the other polarity is rejected with reason
+        ``"polarity_not_in_dictionary"``.
         """
         # Imported here: the decoder core depends on the lookup interface, not on the ORM.
         from .db import open_database
@@ -354,6 +362,10 @@ class Detector:
                 if (inverted and not want_inverted) or (not inverted and not want_normal):
                     continue
                 approx = cv2.approxPolyDP(c, 0.03 * len(c), True)
+                if len(approx) != 4:
+                    # a steep view makes a thin quad whose short sides fall within 3 % of the
+                    # perimeter of the long ones
+                    approx = cv2.approxPolyDP(c, 0.012 * len(c), True)
                 if len(approx) != 4 or not cv2.isContourConvex(approx):
                     continue
                 area = abs(float(cv2.contourArea(approx)))
@@ -407,18 +419,18 @@ class Detector:
         frac = cv2.countNonZero(fg) / max(cv2.countNonZero(mask), 1)
         if frac < 0.01 or frac > 0.75:
             return reject("no_triangles", f"bright fraction {frac:.2f}")
-        tris = self._triangles(fg, side)
-        if isinstance(tris, str):
-            return reject(tris)
-        if tris.count == 0:
+        decomps = self._triangles(fg, side, alternatives=False)
+        if isinstance(decomps, str):
+            # no plain decomposition: try the alternatives (opening, slit cuts) right away
+            decomps = self._triangles(fg, side, alternatives=True)
+            if isinstance(decomps, str):
+                return reject(decomps)
+        if not decomps or decomps[0].count == 0:
             return reject("no_triangles")
+        if decomps[0].count > _MAX_TRIANGLES:
+            return reject("non_triangle", f"{decomps[0].count} triangles")
         roi_f = roi.astype(np.float32)
-        # Sub-pixel triangle sides and data-area sides on the grey image.
-        n_t, c_t = _fit_chains(tris.chains)
-        n_t, c_t = _refine_lines(roi_f, n_t, c_t, _triangle_vertices(n_t, c_t), 3, t_mid)
-        verts = _triangle_vertices(n_t, c_t)
-        if not np.isfinite(verts).all():
-            return reject("non_triangle", "degenerate triangle")
+        # Data-area sides at sub-pixel precision on the grey image.
         qn, qc = _lines_through(ql)
         qn, qc = _refine_lines(roi_f, qn, qc, ql.reshape(1, 4, 2), 4, t_mid)
         corners_l = _polygon_vertices(qn, qc, 4)
@@ -428,16 +440,31 @@ class Detector:
         tol = max(p.merge_radius_px, p.merge_radius_rel * side)
         sure = max(2 * p.merge_radius_px, 2 * p.merge_radius_rel * side)
         first: Rejected | None = None
-        for pts_l in _cluster_hypotheses(verts, n_t, c_t, 0.15 * side, sure, tol):
-            result = self._identify(pts_l + origin, corners, quad)
-            if isinstance(result, Detection):
-                return result
-            if first is None:
-                first = result
+        for tris in _then_alternatives(decomps, lambda: self._triangles(fg, side, alternatives=True)):
+            # Sub-pixel triangle sides on the grey image.
+            n_t, c_t = _fit_chains(tris.chains)
+            n_t, c_t = _refine_lines(roi_f, n_t, c_t, _triangle_vertices(n_t, c_t), 3, t_mid)
+            verts = _triangle_vertices(n_t, c_t)
+            bad = _bad_triangles(verts, corners_l, side)
+            if bad:
+                if first is None:
+                    first = reject("non_triangle", bad)
+                continue
+            c_img = c_t + n_t @ origin  # side lines in image coordinates
+            for pts_l, line_ids in _cluster_hypotheses(verts, n_t, c_t, 0.15 * side, sure, tol):
+                lines = [(n_t[ids], c_img[ids]) for ids in line_ids]
+                result = self._identify(pts_l + origin, lines, corners, quad)
+                if isinstance(result, Detection):
+                    return result
+                if first is None or first.reason == "non_triangle":
+                    first = result
         return first if first is not None else reject("non_triangle", "degenerate vertex")
 
-    def _identify(self, pts: _F64, corners: _F64, quad: _Quad) -> Detection | Rejected:
-        """ID, lookup and verification of one point hypothesis (image pixels)."""
+    def _identify(self, pts: _F64, lines: list[tuple[_F64, _F64]], corners: _F64, quad: _Quad) -> Detection | Rejected:
+        """ID, lookup and verification of one point hypothesis (image pixels).
+
+        ``lines[i]`` are the side lines (unit normals, offsets: n·x = c) through point i.
+        """
         p = self.params
         q = quad.corners
 
@@ -464,12 +491,20 @@ class Detector:
                 lam, k, None, None, quad.polarity, pts[list(minimal[0])], None,
                 corners, None, None, margin,
             )  # fmt: skip
-        return self._verify(entry, pts, minimal, corners, quad, margin, lam)
+        tags = entry.extra.get("tags") if entry.extra else None
+        if isinstance(tags, Mapping):
+            # a dictionary member: each of its polarities has its own tag number
+            number = tags.get(quad.polarity)
+            if number is None:
+                return reject("polarity_not_in_dictionary", f"member only as {'/'.join(sorted(tags))}", lam)
+            entry = replace(entry, tag=int(number))
+        return self._verify(entry, pts, lines, minimal, corners, quad, margin, lam)
 
     def _verify(
         self,
         entry: LookupEntry,
         pts: _F64,
+        lines: list[tuple[_F64, _F64]],
         minimal: list[tuple[int, ...]],
         corners: _F64,
         quad: _Quad,
@@ -488,10 +523,11 @@ class Detector:
                 continue
             for lab in minimal:
                 dst = pts[list(lab)]
-                hmat = _homography(src, dst)
+                lab_lines = [lines[i] for i in lab]
+                hmat = _homography_lines(src, lab_lines)
                 if hmat is None:
                     continue
-                err = float(np.linalg.norm(_apply_h(hmat, src) - dst, axis=1).max())
+                err = _line_error(hmat, src, lab_lines)
                 try:
                     g = _apply_h(np.asarray(np.linalg.inv(hmat), dtype=np.float64), corners)
                 except np.linalg.LinAlgError:
@@ -525,7 +561,7 @@ class Detector:
                     )  # fmt: skip
             else:
                 fits = passing
-        err, _, hmat, dst, src, g = min(
+        _, _, hmat, dst, src, g = min(
             fits, key=lambda f: f[0] / bound + quad_w * min(f[1], 1e6) / max(p.max_quad_error, 1e-9)
         )
         ordered = corners
@@ -544,21 +580,29 @@ class Detector:
             model_points=src.copy() if entry.unique_min else None,
             corners=ordered,
             homography=hmat,
-            reprojection_error_px=err,
+            reprojection_error_px=float(np.linalg.norm(_apply_h(hmat, src) - dst, axis=1).max()),
             margin_px=margin,
         )
 
     # ------------------------------------------------------------------ triangles
-    def _triangles(self, fg: NDArray[Any], side: float) -> _Triangles | str:
-        """Split the bright components of a data area into triangles (contour side chains)."""
+    def _triangles(self, fg: NDArray[Any], side: float, alternatives: bool = True) -> list[_Triangles] | str:
+        """Split the bright components of a data area into triangles (contour side chains).
+
+        Returns alternative decompositions, most plausible first (at most
+        ``_MAX_DECOMPOSITIONS``): each component's first decomposition by the splitter's
+        cuts between concave points, then the 3×3 opening, then slit (notch) cuts; the
+        alternatives of one component at a time are combined with the first ones of the others.
+        Without ``alternatives`` only the first decomposition (cheap; what almost every tag
+        needs); the reader asks for the alternatives when it does not decode.
+        """
         p = self.params
         contours, hier = cv2.findContours(fg, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
-        out = _Triangles([], 0)
         if hier is None:
-            return out
+            return [_Triangles([], 0)]
         hh = hier[0]
         min_area = max(p.min_triangle_area_px, 2e-4 * side * side)
         max_area = 0.45 * side * side  # no triangle of a tag covers half its data area
+        options: list[list[list[NDArray[np.float64]]]] = []
         for i, c in enumerate(contours):
             if hh[i][3] >= 0 or len(c) < 8:
                 continue
@@ -582,13 +626,22 @@ class Detector:
                 if len(hole) >= 8:
                     pts = _bridge(pts, hole)
                 child = hh[child][0]
-            tri = _split_triangles(pts, 0)
-            if tri is None:
-                tri = _triangles_by_opening(fg, contours, hier, i)
-            if tri is None:
+            alts = _component_decompositions(
+                pts, lambda i=i: _triangles_by_opening(fg, contours, hier, i), alternatives
+            )
+            if not alts:
                 return "non_triangle"
-            out.chains.extend(tri)
-            out.count += len(tri) // 3
+            options.append(alts)
+        if not options:
+            return [_Triangles([], 0)]
+        firsts = [o[0] for o in options]
+        out = [_Triangles([ch for f in firsts for ch in f], sum(len(f) for f in firsts) // 3)]
+        for ci, alts in enumerate(options):
+            for alt in alts[1:]:
+                if len(out) >= _MAX_DECOMPOSITIONS:
+                    break
+                combo = [*firsts[:ci], alt, *firsts[ci + 1 :]]
+                out.append(_Triangles([ch for f in combo for ch in f], sum(len(f) for f in combo) // 3))
         return out
 
 
@@ -753,33 +806,90 @@ def _bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
     return np.concatenate([outer[: i + 1], hole[j:], hole[: j + 1], outer[i:]])
 
 
-def _split_triangles(pts: NDArray[Any], depth: int) -> list[NDArray[np.float64]] | None:
+_MAX_DECOMPOSITIONS = 6
+#: More triangles than this cannot hold 8 points (each triangle has 3 of them, two triangles share
+#: at most one): the component soup of a non-tag.
+_MAX_TRIANGLES = 12
+
+
+def _then_alternatives(first: list[_Triangles], more: Callable[[], list[_Triangles] | str]) -> Iterator[_Triangles]:
+    """``first``, then the decompositions of ``more()`` not already in ``first`` (computed lazily)."""
+    yield from first
+    if len(first) > 1:
+        return  # ``first`` already holds the alternatives
+    alts = more()
+    if isinstance(alts, str):
+        return
+    keys = {tuple(np.round(np.concatenate(t.chains)[:, 0]).tolist()) for t in first if t.chains}
+    for t in alts:
+        if t.chains and tuple(np.round(np.concatenate(t.chains)[:, 0]).tolist()) in keys:
+            continue
+        yield t
+
+
+def _component_decompositions(
+    pts: NDArray[Any], opening: Callable[..., list[NDArray[np.float64]] | None], alternatives: bool = True
+) -> list[list[NDArray[np.float64]]]:
+    """Alternative triangle decompositions of one component contour, most plausible first.
+
+    Without ``alternatives`` only the splitter's first decomposition (or the opening's, if the
+    splitter finds none).
+    """
+    out: list[list[NDArray[np.float64]]] = []
+    keys: set[tuple[float, ...]] = set()
+
+    def add(chains: list[NDArray[np.float64]]) -> None:
+        key = tuple(sorted(round(float(v), 0) for ch in chains for v in (ch[0, 0], ch[0, 1])))
+        if key not in keys:
+            keys.add(key)
+            out.append(chains)
+
+    first = next(_split_triangles(pts, 0, False), None)
+    if first is not None:
+        add(first)
+        if len(first) == 3 or not alternatives:
+            return out  # one triangle: nothing to reconsider
+    opened = opening()
+    if opened is not None:
+        add(opened)
+    if not alternatives:
+        return out
+    for alt in itertools.islice(_split_triangles(pts, 0, True), 8):
+        add(alt)
+        if len(out) >= 4:
+            break
+    return out
+
+
+def _split_triangles(pts: NDArray[Any], depth: int, notch: bool) -> Iterator[list[NDArray[np.float64]]]:
     """Triangles of a contour that may be several triangles joined at shared vertices.
 
     A union of triangles meeting at a vertex has concave corners there (convexity defects) on
     both sides of the shared vertex (or a defect and the bottom of the notch the blur filled):
     the contour is cut between two such concave points, shortest cut first (or from a concave
-    point to a contour point within 3 px, a pinch), and both halves are fitted again,
-    recursively.
+    point to a contour point within 3 px, a pinch; with ``notch`` also along a slit, see
+    :func:`_notch_cuts`), and both halves are fitted again, recursively. Yields the
+    decompositions found, in the order of the cuts.
     """
     tri = _triangle_fit(pts)
     if tri is not None:
-        return tri
+        yield tri
+        return
     n = len(pts)
     if depth >= 4 or n < 16:
-        return None
+        return
     c = pts.reshape(-1, 1, 2).astype(np.int32)
     try:
         hull = np.sort(cv2.convexHull(c, returnPoints=False).ravel()).reshape(-1, 1)
         defects = cv2.convexityDefects(c, hull.astype(np.int32))
     except cv2.error:
-        return None
+        return
     if defects is None:
-        return None
+        return
     dfs = defects.reshape(-1, 4)
     dfs = dfs[dfs[:, 3] >= 180]  # deeper than 0.7 px
     if len(dfs) == 0:
-        return None
+        return
     flat = pts.reshape(-1, 2).astype(np.float64)
     min_sep = max(8, n // 12)
     far_pts = np.unique(dfs[:, 2])
@@ -795,6 +905,7 @@ def _split_triangles(pts: NDArray[Any], depth: int) -> list[NDArray[np.float64]]
             if sep >= min_sep and dist <= cut_max:
                 cuts.append((dist, i, j))
     cuts.sort()
+    cuts = cuts[:5]
     idx = np.arange(n)
     for far in dfs[np.argsort(-dfs[:, 3])][:3, 2]:
         i = int(far)
@@ -805,16 +916,78 @@ def _split_triangles(pts: NDArray[Any], depth: int) -> list[NDArray[np.float64]]
         j = int(np.argmin(dist))
         if dist[j] <= 3.0:
             cuts.append((float(dist[j]), i, j))
-    for _, i, j in cuts[:5]:
+    if notch:
+        cuts += _notch_cuts(flat, dfs, min_sep)
+    tried: set[tuple[int, int]] = set()
+    for _, i, j in cuts:
         a, b = sorted((i, j))
-        left = _split_triangles(pts[a : b + 1], depth + 1)
-        if left is None:
+        if (a, b) in tried:
             continue
-        right = _split_triangles(np.concatenate([pts[b:], pts[: a + 1]]), depth + 1)
-        if right is None:
-            continue
-        return left + right
-    return None
+        tried.add((a, b))
+        rights: list[list[NDArray[np.float64]]] | None = None
+        for left in _split_triangles(pts[a : b + 1], depth + 1, notch):
+            if rights is None:
+                rights = list(
+                    itertools.islice(_split_triangles(np.concatenate([pts[b:], pts[: a + 1]]), depth + 1, notch), 2)
+                )
+            if not rights:
+                break
+            for right in rights:
+                yield left + right
+
+
+def _notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[tuple[float, int, int]]:
+    """Cuts that continue a slit from its bottom (a concave point) to where it leaves the shape.
+
+    Two triangles that share a vertex at a narrow angle leave a slit between them that the
+    blur closes near the vertex: the union's contour has one concave point (the slit bottom)
+    and the shared vertex is a convex corner on the far side. The cut runs from the concave
+    point straight on, along the slit (from the middle of the notch's mouth through its
+    bottom, or along the bisector of its walls), to where the ray leaves the component, and
+    ends at the contour point there that lies farthest along the ray (the shared tip).
+    """
+    n = len(flat)
+    lo = flat.min(axis=0) - 1
+    size = (flat.max(axis=0) - lo + 2).astype(np.int64)
+    mask = np.zeros((int(size[1]), int(size[0])), dtype=np.uint8)
+    cv2.fillPoly(mask, [np.round(flat - lo).astype(np.int32).reshape(-1, 1, 2)], 1)
+    reach = float(np.hypot(*size))
+    steps = np.arange(1.0, reach, 0.5)
+    out: list[tuple[float, int, int]] = []
+    idx = np.arange(n)
+    walls = max(3, min(10, n // 24))
+    for s_, e_, far, _depth in dfs[np.argsort(-dfs[:, 3])][:4]:
+        i = int(far)
+        p = flat[i]
+        u1 = flat[(i - walls) % n] - p
+        u2 = flat[(i + walls) % n] - p
+        bis = -(u1 / max(float(np.hypot(*u1)), 1e-9) + u2 / max(float(np.hypot(*u2)), 1e-9))
+        mouth = p - 0.5 * (flat[int(s_)] + flat[int(e_)])
+        arc = np.abs(idx - i)
+        arc = np.minimum(arc, n - arc)
+        for d in (mouth, bis):
+            ln = float(np.hypot(*d))
+            if ln < 1e-6:
+                continue
+            d = d / ln
+            ray = p + steps[:, None] * d
+            rc = np.round(ray - lo).astype(np.int64)
+            ok = (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < size[0]) & (rc[:, 1] < size[1])
+            inside = np.zeros(len(steps), dtype=bool)
+            inside[ok] = mask[rc[ok, 1], rc[ok, 0]] > 0
+            outside = np.nonzero(~inside)[0]
+            last = (int(outside[0]) if len(outside) else len(steps)) - 1
+            if last < 2:
+                continue
+            exit_pt = ray[last]
+            dist = np.linalg.norm(flat - exit_pt, axis=1)
+            near = (dist <= max(3.0, 0.08 * steps[last])) & (arc >= min_sep)
+            if not near.any():
+                continue
+            along = np.where(near, (flat - p) @ d, -np.inf)
+            j = int(np.argmax(along))
+            out.append((100.0 + float(steps[last]), i, j))
+    return out
 
 
 def _triangles_by_opening(
@@ -845,6 +1018,48 @@ def _triangles_by_opening(
             return None
         out.extend(ch + offset for ch in tri)
     return out or None
+
+
+def _bad_triangles(verts: _F64, quad: _F64, side: float) -> str:
+    """Why fitted triangles cannot be a tag's (``""`` if they can).
+
+    The vertices must be finite and inside the data area, and no two triangles may share
+    part of a side: tag triangles meet only at shared vertices, while a cut through one
+    triangle (a wrong split) leaves two triangles on both sides of one line segment.
+    """
+    if not np.isfinite(verts).all():
+        return "degenerate triangle"
+    v = verts.reshape(-1, 2)
+    # inside the data area: on the inner side of every quad side (convex, either orientation)
+    a = quad
+    d = np.roll(quad, -1, axis=0) - a
+    cross = d[None, :, 0] * (v[:, None, 1] - a[None, :, 1]) - d[None, :, 1] * (v[:, None, 0] - a[None, :, 0])
+    cross /= np.hypot(d[:, 0], d[:, 1])[None, :]
+    slack = 1.0 + 0.01 * side
+    if not ((cross >= -slack).all(axis=1).all() or (cross <= slack).all(axis=1).all()):
+        return "triangle vertex outside the data area"
+    t = len(verts)
+    if t < 2:
+        return ""
+    near = max(0.8, 0.008 * side)
+    sa = verts.reshape(-1, 2)  # side j of triangle i runs from vertex j to j + 1
+    sb = np.roll(verts, -1, axis=1).reshape(-1, 2)
+    sd = sb - sa
+    ln = np.maximum(np.hypot(sd[:, 0], sd[:, 1]), 1e-9)
+    unit = sd / ln[:, None]
+    nrm = np.stack([-unit[:, 1], unit[:, 0]], axis=1)
+    # side j against side i: both ends of j within ``near`` of side i's line, and their
+    # projections overlapping side i over a third of the shorter side
+    off_a = np.abs(((sa[None, :, :] - sa[:, None, :]) * nrm[:, None, :]).sum(axis=2))
+    off_b = np.abs(((sb[None, :, :] - sa[:, None, :]) * nrm[:, None, :]).sum(axis=2))
+    pa = ((sa[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
+    pb = ((sb[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
+    overlap = np.minimum(np.maximum(pa, pb), ln[:, None]) - np.maximum(np.minimum(pa, pb), 0.0)
+    own = (np.arange(len(sa)) // 3)[:, None] == (np.arange(len(sa)) // 3)[None, :]
+    shared = (off_a < near) & (off_b < near) & (overlap > np.minimum(ln[:, None], ln[None, :]) / 3) & ~own
+    if shared.any():
+        return "two triangles share part of a side"
+    return ""
 
 
 def _fit_chains(chains: list[NDArray[np.float64]]) -> tuple[_F64, _F64]:
@@ -914,9 +1129,15 @@ def _refine_lines(
     """Move each side line to the ``level`` crossings of the grey image along its normals.
 
     ``verts`` ``(P, m, 2)`` are the current polygon vertices; side j runs from vertex j to
-    j+1. Samples 12 positions on the middle 60 % of each side, 13 offsets in ±3 px
+    j+1. Samples 16 positions on the middle 84 % of each side, 13 offsets in ±3 px
     (bilinear), takes the crossing nearest the line and refits by least squares. Sides with
     fewer than 3 crossings keep their line.
+
+    For triangles (``P > 1`` or ``m == 3``) a sample counts only where the shape is wide
+    enough: its distance to every other side (of any triangle) must be at least
+    ``min(3 px, 0.6 × the side's widest sample)``. Across a sliver narrower than the blur the
+    grey level never reaches the bright level and the crossings move inward, which would
+    make needle tips overshoot along their axis.
     """
     a = verts.reshape(-1, 2)
     b = np.roll(verts, -1, axis=1).reshape(-1, 2)
@@ -924,23 +1145,36 @@ def _refine_lines(
     finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
     a = np.where(np.asarray(finite)[:, None], a, 0.0)
     b = np.where(np.asarray(finite)[:, None], b, 0.0)
-    fr = np.linspace(0.2, 0.8, 12)
+    n_s = 16
+    fr = np.linspace(0.08, 0.92, n_s)
     base = a[:, None, :] + fr[None, :, None] * (b - a)[:, None, :]  # (S, M, 2)
     # project base points onto the current lines
     dist = (base * normal[:, None, :]).sum(axis=2) - offset[:, None]
     base = base - dist[:, :, None] * normal[:, None, :]
+    wide = np.ones((s, n_s), dtype=bool)
+    if m == 3:
+        # distance of every sample to every other side segment
+        sd = b - a
+        ln2 = np.maximum((sd * sd).sum(axis=1), 1e-12)
+        rel = base[:, :, None, :] - a[None, None, :, :]  # (S, M, S, 2)
+        u = np.clip((rel * sd[None, None]).sum(axis=3) / ln2[None, None], 0.0, 1.0)
+        gap = np.linalg.norm(rel - u[..., None] * sd[None, None], axis=3)
+        gap[np.arange(s), :, np.arange(s)] = np.inf
+        width = gap.min(axis=2)  # (S, M)
+        thr = np.minimum(3.0, 0.6 * width.max(axis=1))
+        wide = width >= thr[:, None]
     offs = np.linspace(-3.0, 3.0, 13)
     samp = base[:, :, None, :] + offs[None, None, :, None] * normal[:, None, None, :]  # (S, M, O, 2)
-    mx = samp[..., 0].astype(np.float32).reshape(1, -1)
-    my = samp[..., 1].astype(np.float32).reshape(1, -1)
+    mx = samp[..., 0].astype(np.float32).reshape(-1, 13)
+    my = samp[..., 1].astype(np.float32).reshape(-1, 13)
     vals = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    vals = vals.reshape(s, 12, 13).astype(np.float64) - level
+    vals = vals.reshape(s, n_s, 13).astype(np.float64) - level
     above = vals > 0
     change = above[:, :, 1:] != above[:, :, :-1]  # crossing between o and o+1
     mid = np.abs(0.5 * (offs[1:] + offs[:-1]))
     score = np.where(change, mid[None, None, :], np.inf)
     j = np.argmin(score, axis=2)
-    valid = np.isfinite(np.take_along_axis(score, j[..., None], axis=2)[..., 0])
+    valid = np.isfinite(np.take_along_axis(score, j[..., None], axis=2)[..., 0]) & wide
     v0 = np.take_along_axis(vals, j[..., None], axis=2)[..., 0]
     v1 = np.take_along_axis(vals, (j + 1)[..., None], axis=2)[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -977,7 +1211,7 @@ def _ls_point(normal: _F64, offset: _F64) -> tuple[_F64, float]:
 
 def _cluster_hypotheses(
     verts: _F64, normal: _F64, offset: _F64, cap: float, sure: float, tol: float, max_doubtful: int = 4
-) -> list[_F64]:
+) -> list[tuple[_F64, list[NDArray[np.int64]]]]:
     """Point hypotheses from the triangle vertex estimates, most merges first.
 
     Estimates of different triangles may be one shared point when the least-squares
@@ -985,7 +1219,8 @@ def _cluster_hypotheses(
     most ``cap`` px apart). Merges of estimates closer than ``sure`` px are always made; up to
     ``max_doubtful`` farther ones (sharp tips give long error ellipses along the bisector) are
     tried in and out, and the decoder keeps the first hypothesis that reads and verifies.
-    Each point is the least-squares intersection of its side lines.
+    Each point is the least-squares intersection of its side lines; each hypothesis comes
+    with the indices of the side lines through each of its points.
     """
     v = verts.reshape(-1, 2)
     n = len(v)
@@ -1007,7 +1242,7 @@ def _cluster_hypotheses(
         (sure_pairs if d[i, j] <= sure else doubtful).append((i, j))
     doubtful = doubtful[:max_doubtful]
     subsets = sorted(itertools.product((True, False), repeat=len(doubtful)), key=lambda s: -sum(s))
-    out: list[_F64] = []
+    out: list[tuple[_F64, list[NDArray[np.int64]]]] = []
     seen: set[tuple[int, ...]] = set()
     for subset in subsets:
         pairs = sure_pairs + [pr for pr, use in zip(doubtful, subset, strict=True) if use]
@@ -1017,14 +1252,16 @@ def _cluster_hypotheses(
             continue
         seen.add(key)
         pts = []
+        lines = []
         for members in groups:
             ids = line_ids[members].ravel()
             x, _ = _ls_point(normal[ids], offset[ids])
             if not np.isfinite(x).all():
                 break
             pts.append(x)
+            lines.append(ids)
         else:
-            out.append(np.stack(pts))
+            out.append((np.stack(pts), lines))
     return out
 
 
@@ -1073,15 +1310,53 @@ def _margin(pts: _F64) -> float:
     return float(dist.min())
 
 
-def _homography(src: _F64, dst: _F64) -> _F64 | None:
-    """Least-squares homography (normalised DLT) mapping ``src`` onto ``dst``; None if degenerate."""
-    if src.shape[0] < 4:  # k = 3: three points do not determine a homography
+def _homography_lines(src: _F64, lines: list[tuple[_F64, _F64]]) -> _F64 | None:
+    """Homography mapping each ``src`` point onto the side lines through its detected point.
+
+    Linear least squares (normalised DLT) on the incidences ``l·H·x = 0`` of every model point
+    ``x`` with every image line ``l`` fitted through the detected point; a vertex is thus
+    constrained across each of its sides, where it is measured well, and not along the axis
+    of a sharp tip, where the side lines meet at a small angle. Falls back to None when the
+    system is degenerate.
+    """
+    nrm = np.concatenate([n for n, _ in lines])
+    off = np.concatenate([c for _, c in lines])
+    rep = np.concatenate([np.full(len(c), i) for i, (_, c) in enumerate(lines)])
+    if len(off) < 8:
         return None
-    hmat, _ = cv2.findHomography(src.astype(np.float64), dst.astype(np.float64), 0)
-    if hmat is None or not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
+    # normalisation: model points to zero mean / unit spread; image lines to the same for
+    # the detected points (the least-squares points of the lines)
+    mc = src.mean(axis=0)
+    ms = math.sqrt(2.0) / max(float(np.linalg.norm(src - mc, axis=1).mean()), 1e-12)
+    tm = np.array([[ms, 0, -ms * mc[0]], [0, ms, -ms * mc[1]], [0, 0, 1.0]])
+    foot = nrm * off[:, None]  # a point of each line
+    ic = foot.mean(axis=0)
+    spread = float(np.linalg.norm(foot - ic, axis=1).mean())
+    isc = math.sqrt(2.0) / max(spread, 1e-12)
+    ti = np.array([[isc, 0, -isc * ic[0]], [0, isc, -isc * ic[1]], [0, 0, 1.0]])
+    # a line (n, c) is the homogeneous vector (n_x, n_y, -c); lines map by ti^-T
+    lh = np.c_[nrm, -off] @ np.linalg.inv(ti)
+    lh /= np.maximum(np.hypot(lh[:, 0], lh[:, 1]), 1e-12)[:, None]
+    xs = np.c_[src, np.ones(len(src))] @ tm.T
+    a = (lh[:, :, None] * xs[rep][:, None, :]).reshape(len(off), 9)
+    try:
+        _, _, vt = np.linalg.svd(a)
+    except np.linalg.LinAlgError:
+        return None
+    hn = vt[-1].reshape(3, 3)
+    hmat = np.linalg.inv(ti) @ hn @ tm
+    if not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
         return None
     out: _F64 = hmat / hmat[2, 2]
     return out
+
+
+def _line_error(hmat: _F64, src: _F64, lines: list[tuple[_F64, _F64]]) -> float:
+    """Largest distance from a mapped model point to a side line through its detected point."""
+    mapped = _apply_h(hmat, src)
+    if not np.isfinite(mapped).all():
+        return math.inf
+    return max(float(np.abs(n @ m - c).max()) for m, (n, c) in zip(mapped, lines, strict=True))
 
 
 def _apply_h(hmat: _F64, pts: _F64) -> _F64:
