@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+import sys
 import time
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,12 +24,16 @@ __all__ = [
     "Progress",
     "Realization",
     "enumerate_order_types",
+    "file_name",
     "generate_database",
     "insertion_candidates",
     "mirror_points",
     "normalize_unit",
     "relative_mp",
 ]
+
+_T = TypeVar("_T")
+_R = TypeVar("_R")
 
 #: Progress callback ``(stage name, done, total)``.
 Progress = Callable[[str, int, int], None]
@@ -37,9 +44,13 @@ MP_THRESHOLDS: tuple[float, ...] = tuple(0.5 * i for i in range(1, 19))
 #: Candidates whose distance to a line of the arrangement is below this fraction of the
 #: set's extent are dropped (they are numerically on the line).
 _CLEARANCE_TOL = 1e-9
+#: Candidate sets with a smaller relative MP are treated as numerically degenerate.
+_MIN_QUALITY = 1e-9
 #: Distance (in units of the set's extent, which is 1 after normalization) at which points
 #: are placed in unbounded cells.
 _FAR = 1.5
+#: Base sets per work unit of the enumeration (fixed, so results do not depend on ``jobs``).
+_ENUM_CHUNK = 1500
 #: Candidate sets canonicalized per batch (bounds the memory to a few hundred MB).
 _CHUNK_SETS = 200_000
 
@@ -106,12 +117,18 @@ def relative_mp(points: NDArray[np.float64]) -> NDArray[np.float64]:
     """
     n = points.shape[1]
     a, b, c = _triple_index(n)
-    pa, pb, pc = points[:, a], points[:, b], points[:, c]
-    ab = pb - pa
-    ac = pc - pa
-    bc = pc - pb
-    area2 = np.abs(ab[..., 0] * ac[..., 1] - ab[..., 1] * ac[..., 0])
-    longest = np.sqrt(np.maximum(np.maximum((ab * ab).sum(-1), (ac * ac).sum(-1)), (bc * bc).sum(-1)))
+    pair_id = np.full((n, n), -1, dtype=np.intp)
+    first, second = np.triu_indices(n, 1)
+    pair_id[first, second] = np.arange(first.size)
+    x = points[..., 0]
+    y = points[..., 1]
+    cross = x[:, first] * y[:, second] - y[:, first] * x[:, second]  # (B, P)
+    dx = x[:, second] - x[:, first]
+    dy = y[:, second] - y[:, first]
+    sq = dx * dx + dy * dy
+    ab, bc, ac = pair_id[a, b], pair_id[b, c], pair_id[a, c]
+    area2 = np.abs(cross[:, ab] + cross[:, bc] - cross[:, ac])
+    longest = np.sqrt(np.maximum(np.maximum(sq[:, ab], sq[:, bc]), sq[:, ac]))
     with np.errstate(divide="ignore", invalid="ignore"):
         heights = np.where(longest > 0, area2 / longest, 0.0)
     extent = (points.max(axis=1) - points.min(axis=1)).max(axis=1)
@@ -204,57 +221,92 @@ def insertion_candidates(base: NDArray[np.float64]) -> tuple[NDArray[np.float64]
     return cand, clearance
 
 
+def _best_per_key(keys: NDArray[np.void], quality: NDArray[np.float64]) -> tuple[NDArray[np.intp], NDArray[np.void]]:
+    """Index of the highest-quality entry of every distinct key (ties: the first), keys sorted."""
+    uniq, inverse = np.unique(keys, return_inverse=True)
+    order = np.lexsort((np.arange(keys.size), -quality, inverse.ravel()))
+    starts = np.searchsorted(inverse.ravel()[order], np.arange(uniq.size))
+    picked: NDArray[np.intp] = order[starts]
+    return picked, uniq
+
+
+def _lambda_keys(lam: NDArray[np.int8]) -> NDArray[np.void]:
+    b, k, _ = lam.shape
+    flat = np.ascontiguousarray(lam.reshape(b, k * k))
+    keys: NDArray[np.void] = flat.view(np.dtype((np.void, k * k))).ravel()
+    return keys
+
+
 def _insert_points(base: NDArray[np.float64]) -> dict[str, tuple[NDArray[np.float64], float]]:
     """All order types obtained by adding one point to a base set: ID → (best set, quality).
 
     Candidates in the same cell of the same base set are merged first (by their sign
-    vector with respect to all lines); of the sets with the same canonical ID the one with
-    the largest :func:`relative_mp` is kept (normalized into [0, 1]²).
+    vector with respect to all lines); candidate sets whose :func:`relative_mp` is below
+    ``_MIN_QUALITY`` are dropped as numerically degenerate; of the sets with the same
+    canonical ID the one with the largest :func:`relative_mp` is kept (normalized into
+    [0, 1]²).
     """
     n_sets, m, _ = base.shape
-    k = m + 1
-    found: dict[str, tuple[NDArray[np.float64], float]] = {}
-    per_set = max(1, _CHUNK_SETS // max(1, (m * 2 * (m - 1) + 4 * _vertex_layout(m)[2].size)))
+    first, second = np.triu_indices(m, 1)
+    per_set = max(1, _CHUNK_SETS // (m * 2 * (m - 1) + 4 * _vertex_layout(m)[2].size))
+    all_sets: list[NDArray[np.float64]] = []
+    all_quality: list[NDArray[np.float64]] = []
+    all_keys: list[NDArray[np.void]] = []
     for start in range(0, n_sets, per_set):
         chunk = base[start : start + per_set]
-        cand, clearance = insertion_candidates(chunk)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cand, clearance = insertion_candidates(chunk)
         nb, nc, _ = cand.shape
-        first, second = np.triu_indices(m, 1)
         pi = chunk[:, first][:, None]
         pj = chunk[:, second][:, None]
         cross = (pj[..., 0] - pi[..., 0]) * (cand[:, :, None, 1] - pi[..., 1]) - (pj[..., 1] - pi[..., 1]) * (
             cand[:, :, None, 0] - pi[..., 0]
         )  # (nb, nc, P)
         bits = (cross < 0).astype(np.int64) << np.arange(first.size, dtype=np.int64)
-        code = bits.sum(axis=2)
-        ok = clearance > _CLEARANCE_TOL
-        set_idx = np.broadcast_to(np.arange(nb)[:, None], (nb, nc))
+        code = bits.sum(axis=2).ravel()
+        ok = (clearance > _CLEARANCE_TOL).ravel()
+        set_idx = np.repeat(np.arange(nb), nc)
         # One candidate per (base set, cell): the one farthest from all lines.
-        order = np.lexsort((-clearance.ravel(), code.ravel(), set_idx.ravel()))
-        order = order[ok.ravel()[order]]
-        keys = set_idx.ravel()[order] * (1 << 40) + code.ravel()[order]
+        order = np.lexsort((-clearance.ravel(), code, set_idx))
+        order = order[ok[order]]
+        keys = set_idx[order] * (1 << 40) + code[order]
         _, first_pos = np.unique(keys, return_index=True)
         pick = order[first_pos]
-        sets = np.concatenate([chunk[set_idx.ravel()[pick]], cand.reshape(-1, 2)[pick][:, None, :]], axis=1)
+        sets = np.concatenate([chunk[set_idx[pick]], cand.reshape(-1, 2)[pick][:, None, :]], axis=1)
         quality = relative_mp(sets)
-        texts = canonical_batch(sets).texts()
-        best: dict[str, int] = {}
-        for idx, text in enumerate(texts):
-            prev = best.get(text)
-            if prev is None or quality[idx] > quality[prev]:
-                best[text] = idx
-        for text, idx in best.items():
-            q = float(quality[idx])
-            old = found.get(text)
-            if old is None or q > old[1]:
-                found[text] = (sets[idx], q)
-    del k
-    return {t: (normalize_unit(p[None])[0], q) for t, (p, q) in found.items()}
+        good = quality > _MIN_QUALITY
+        sets, quality = sets[good], quality[good]
+        lam_keys = _lambda_keys(canonical_batch(sets).lambdas)
+        idx, _ = _best_per_key(lam_keys, quality)
+        all_sets.append(sets[idx])
+        all_quality.append(quality[idx])
+        all_keys.append(lam_keys[idx])
+    if not all_sets:
+        return {}
+    sets = np.concatenate(all_sets)
+    quality = np.concatenate(all_quality)
+    idx, _ = _best_per_key(np.concatenate(all_keys), quality)
+    sets = normalize_unit(sets[idx])
+    quality = quality[idx]
+    texts = canonical_batch(sets).texts()
+    return {t: (p, float(q)) for t, p, q in zip(texts, sets, quality, strict=True)}
 
 
 def _mirror_texts(points: NDArray[np.float64]) -> list[str]:
     lam = canonical_batch(points).lambdas
     return canonicalize_lambdas(mirror_lambdas(lam)).texts()
+
+
+def _jitter(points: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
+    """Move every point by less than a tenth of its set's MP: same order type, no symmetries.
+
+    Realizations with large MP tend to be symmetric (parallel lines, three lines through one
+    crossing), which would hide cells of the arrangement; a small random displacement
+    removes such coincidences without changing the order type.
+    """
+    scale = relative_mp(points) * (points.max(axis=1) - points.min(axis=1)).max(axis=1)
+    step = np.clip(rng.normal(0.0, 0.03, size=points.shape), -0.07, 0.07) * scale[:, None, None]
+    return normalize_unit(points + step)
 
 
 def _subsets(points: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -265,58 +317,236 @@ def _subsets(points: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def enumerate_order_types(max_k: int = 8, progress: Progress | None = None) -> dict[int, list[Realization]]:
+def _parallel_map(
+    fn: Callable[[_T], _R], items: list[_T], jobs: int, on_done: Callable[[int], None] | None = None
+) -> list[_R]:
+    """``[fn(x) for x in items]`` over ``jobs`` processes (in order); ``on_done(i)`` after each."""
+    out: list[_R] = []
+    if jobs <= 1 or len(items) <= 1:
+        for item in items:
+            out.append(fn(item))
+            if on_done is not None:
+                on_done(len(out))
+        return out
+    with ProcessPoolExecutor(max_workers=min(jobs, len(items))) as pool:
+        for res in pool.map(fn, items):
+            out.append(res)
+            if on_done is not None:
+                on_done(len(out))
+    return out
+
+
+def _insert_all(
+    base: NDArray[np.float64], jobs: int, stage: str, progress: Progress | None
+) -> dict[str, tuple[NDArray[np.float64], float]]:
+    """:func:`_insert_points` over fixed chunks of ``base`` (so the result is independent of
+    ``jobs``), merged keeping the best quality per ID (earlier chunk on ties)."""
+    chunks = [base[i : i + _ENUM_CHUNK] for i in range(0, base.shape[0], _ENUM_CHUNK)]
+    if progress is not None:
+        progress(stage, 0, len(chunks))
+
+    def done(i: int) -> None:
+        if progress is not None:
+            progress(stage, i, len(chunks))
+
+    merged: dict[str, tuple[NDArray[np.float64], float]] = {}
+    for part in _parallel_map(_insert_points, chunks, jobs, done):
+        for text, (pts, q) in part.items():
+            old = merged.get(text)
+            if old is None or q > old[1]:
+                merged[text] = (pts, q)
+    return merged
+
+
+def enumerate_order_types(
+    max_k: int = 8, progress: Progress | None = None, jobs: int = 1
+) -> dict[int, list[Realization]]:
     """All order types of ``k = 3 … max_k`` points in general position, both chiralities.
 
     Starts from a triangle; the types of ``k`` points come from inserting a point into
     every cell of the line arrangement of a realization of each type of ``k − 1`` points,
     then (since the cells depend on the coordinates) into every ``(k − 1)``-subset of the
     new ``k``-point realizations, until a pass finds nothing new. Mirror images are added
-    by reflection. Deterministic. Returns ``{k: [Realization, …]}`` sorted by ID text; the
-    points are in [0, 1]² and, of all candidates seen, the one with the largest relative
-    MP is kept.
+    by reflection. Deterministic (also across ``jobs``, the number of processes). Returns
+    ``{k: [Realization, …]}`` sorted by ID text; the points are in [0, 1]² and, of all
+    candidates seen, the one with the largest relative MP is kept.
+    ``progress(stage, done, total)`` is called per chunk of work.
     """
     if not 3 <= max_k <= 8:
         raise UsageError(f"max_k must be between 3 and 8, got {max_k}")
+    if jobs < 1:
+        raise UsageError(f"jobs must be at least 1, got {jobs}")
     tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]]])
     tri_text = canonical_batch(tri).texts()[0]
     result: dict[int, list[Realization]] = {3: [Realization(tri_text, _mirror_texts(tri)[0], tri[0])]}
     for k in range(4, max_k + 1):
+        rng = np.random.default_rng(k)
         reps = [r for r in result[k - 1] if r.representative]
-        base = np.stack([r.points for r in reps])
+        base = _jitter(np.stack([r.points for r in reps]), rng)
         found: dict[str, tuple[NDArray[np.float64], float]] = {}
         passes = 0
         while base.shape[0]:
             passes += 1
-            if progress is not None:
-                progress(f"enumerate k={k} pass {passes}", 0, 1)
-            new = _insert_points(base)
-            fresh: list[str] = []
+            new = _insert_all(base, jobs, f"enumerate k={k} pass {passes}", progress)
+            fresh = sorted(t for t in new if t not in found)
             for text, (pts, q) in new.items():
                 old = found.get(text)
-                if old is None:
-                    fresh.append(text)
                 if old is None or q > old[1]:
                     found[text] = (pts, q)
-            # Close under reflection; the reflected sets need not be extended (their
-            # extensions are the reflections of the extensions of the originals).
-            direct = sorted(fresh)
-            if fresh:
-                fresh_pts = np.stack([found[t][0] for t in fresh])
-                mirrored = mirror_points(fresh_pts)
-                for text, pts, q in zip(
-                    canonical_batch(mirrored).texts(), mirrored, relative_mp(mirrored), strict=True
-                ):
-                    if text not in found:
-                        found[text] = (pts, float(q))
-                        fresh.append(text)
-            if progress is not None:
-                progress(f"enumerate k={k} pass {passes}", 1, 1)
-            if not direct:
+            if not fresh:
                 break
-            base = _subsets(np.stack([found[t][0] for t in direct]))
+            # Close under reflection. Extending a reflected set gives only the reflections of
+            # the extensions of the original, so one chirality per pair is extended further.
+            fresh_pts = np.stack([found[t][0] for t in fresh])
+            fresh_set = set(fresh)
+            frontier: list[NDArray[np.float64]] = []
+            mirrored = mirror_points(fresh_pts)
+            for text, mtext, pts, mpts, mq in zip(
+                fresh, _mirror_texts(fresh_pts), fresh_pts, mirrored, relative_mp(mirrored), strict=True
+            ):
+                if text <= mtext or mtext not in fresh_set:
+                    frontier.append(pts)
+                if mtext not in found:
+                    found[mtext] = (mpts, float(mq))
+            base = _jitter(_subsets(np.stack(frontier)), rng)
         texts = sorted(found)
         pts_all = np.stack([found[t][0] for t in texts])
         mirrors = _mirror_texts(pts_all)
         result[k] = [Realization(t, mt, p) for t, mt, p in zip(texts, mirrors, pts_all, strict=True)]
     return result
+
+
+# --------------------------------------------------------------------------------------------
+# The bundled database files
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class GenerationReport:
+    """Summary of :func:`generate_database`.
+
+    - ``records``: ``{k: sets in the file}`` (one per reflection pair);
+    - ``with_mirrors``: ``{k: order types counting both chiralities}``;
+    - ``files``: ``{k: path of ottag-kNN.b08}``; ``manifest``: path of manifest.json;
+    - ``mp_thresholds``: the values v (grid units) of ``mp_table``;
+    - ``mp_table``: ``{k: (number of sets with MP ≥ v for each v)}`` (paper's Table 7);
+    - ``mp_min``: ``{k: smallest MP of the file}`` (grid units);
+    - ``seed``; ``seconds``: wall time per stage ("enumerate", "realize", "total").
+    """
+
+    records: dict[int, int]
+    with_mirrors: dict[int, int]
+    files: dict[int, Path]
+    manifest: Path
+    mp_thresholds: tuple[float, ...]
+    mp_table: dict[int, tuple[int, ...]]
+    mp_min: dict[int, float]
+    seed: int
+    seconds: dict[str, float]
+
+
+def _tool_version() -> str:
+    """``ottag_db.__version__`` if the package defines it, else "0.1.0"."""
+    version = getattr(sys.modules.get(__package__ or "ottag_db"), "__version__", None)
+    return version if isinstance(version, str) else "0.1.0"
+
+
+def file_name(k: int) -> str:
+    """Name of the bundled point-set file of ``k`` points: ``ottag-kNN.b08``."""
+    return f"ottag-k{k:02d}.b08"
+
+
+def generate_database(
+    max_k: int = 8,
+    out_dir: Path = Path("data"),
+    seed: int = 0,
+    jobs: int = 1,
+    progress: Progress | None = None,
+) -> GenerationReport:
+    """Enumerate all order types of 3 … ``max_k`` points, realize each reflection pair on the
+    [0, 255]² grid with a large MP and write ``ottag-kNN.b08`` plus ``manifest.json``.
+
+    Each file holds one set per reflection pair (the chirality whose ID text is smaller),
+    sorted by that ID text: a drop-in replacement of the reference ``otypesNN.b08``. The
+    output depends only on ``seed`` (not on ``jobs``, the number of processes); two runs
+    with the same seed write identical files. ``progress(stage, done, total)`` reports
+    the stages ("enumerate k=…", "realize k=…", "write").
+    """
+    if not 3 <= max_k <= 8:
+        raise UsageError(f"max_k must be between 3 and 8, got {max_k}")
+    if jobs < 1:
+        raise UsageError(f"jobs must be at least 1, got {jobs}")
+    from .realize import realize_all
+
+    t0 = time.perf_counter()
+    types = enumerate_order_types(max_k, progress=progress, jobs=jobs)
+    t1 = time.perf_counter()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    realized: dict[int, NDArray[np.int64]] = {}
+    mps: dict[int, NDArray[np.float64]] = {}
+    for k in range(3, max_k + 1):
+        reps = sorted((r for r in types[k] if r.representative), key=lambda r: r.text)
+        sets = realize_all(
+            [r.points for r in reps],
+            [r.text for r in reps],
+            seed=seed,
+            jobs=jobs,
+            progress=progress,
+            stage=f"realize k={k}",
+        )
+        realized[k] = np.stack([s.points for s in sets])
+        mps[k] = np.array([s.mp for s in sets])
+    t2 = time.perf_counter()
+    ks = list(range(3, max_k + 1))
+    if progress is not None:
+        progress("write", 0, len(ks))
+    files: dict[int, Path] = {}
+    entries: dict[str, dict[str, object]] = {}
+    for n, k in enumerate(ks, start=1):
+        path = out / file_name(k)
+        write_point_file(path, realized[k], bits=8)
+        files[k] = path
+        entries[str(k)] = {
+            "file": path.name,
+            "points": k,
+            "records": int(realized[k].shape[0]),
+            "order_types_with_mirrors": len(types[k]),
+            "sha256": file_sha256(path),
+            "mp_min": round(float(mps[k].min()), 6),
+            "mp_median": round(float(np.median(mps[k])), 6),
+        }
+        if progress is not None:
+            progress("write", n, len(ks))
+    table = {k: tuple(int((mps[k] >= v).sum()) for v in MP_THRESHOLDS) for k in ks}
+    manifest = {
+        "format": "ottag-db order-type point sets",
+        "tool": "ottag-db",
+        "version": _tool_version(),
+        "seed": seed,
+        "grid": [0, 255],
+        "description": (
+            "One integer realization per order type and reflection pair (the chirality with "
+            "the smaller canonical ID text), sorted by that ID; .b08 records of k (x, y) uint8 "
+            "points. MP is half the smallest distance from a point to a line through two others."
+        ),
+        "files": entries,
+        "mp_summary": {
+            "thresholds": list(MP_THRESHOLDS),
+            "counts_at_least": {str(k): list(table[k]) for k in ks},
+        },
+    }
+    manifest_path = out / "manifest.json"
+    manifest_path.write_text(json.dumps(manifest, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    t3 = time.perf_counter()
+    return GenerationReport(
+        records={k: int(realized[k].shape[0]) for k in ks},
+        with_mirrors={k: len(types[k]) for k in ks},
+        files=files,
+        manifest=manifest_path,
+        mp_thresholds=MP_THRESHOLDS,
+        mp_table=table,
+        mp_min={k: float(mps[k].min()) for k in ks},
+        seed=seed,
+        seconds={"enumerate": t1 - t0, "realize": t2 - t1, "total": t3 - t0},
+    )
