@@ -194,6 +194,11 @@ def _stats_json(stats: list[KStats]) -> dict[str, Any]:
             "unique_min": s.unique_min,
             "chiral": s.chiral,
             "mp_at_least": {f"{v:.1f}": c for v, c in s.mp_at_least.items()},
+            "up_to_reflection": {
+                "order_types": s.up_to_reflection,
+                "unique_min": s.unique_min_up_to_reflection,
+                "mp_at_least": {f"{v:.1f}": c for v, c in s.mp_at_least_up_to_reflection.items()},
+            },
         }
         for s in stats
     }
@@ -204,7 +209,11 @@ def _stats_json(stats: list[KStats]) -> dict[str, Any]:
 @_db_options
 @_quiet_option
 def stats_cmd(as_json: bool, db_target: str | None, quiet: bool) -> None:
-    """Order types per k (Table 2), unique minimum (Table 3) and MP ≥ v counts (Table 7)."""
+    """Order types per k (Table 2), unique minimum (Table 3) and MP ≥ v counts (Table 7).
+
+    Counts are given as stored (both chiralities when mirrors were imported) and up to
+    reflection (a chiral pair once, as in the paper), the latter beside the paper's numbers.
+    """
     with _database(db_target, quiet) as db:
         stats = database_stats(db)
     if as_json:
@@ -213,18 +222,23 @@ def stats_cmd(as_json: bool, db_target: str | None, quiet: bool) -> None:
     if not stats:
         _note("the database holds no order types yet: run `ottag-db import`")
         return
-    click.echo("k  order types  unique min (E^k)  chiral")
+    click.echo("k  order types  unique min (E^k)  chiral | up to reflection: order types  unique min")
     for s in stats:
-        click.echo(f"{s.k:<2} {s.order_types:>11}  {s.unique_min:>16}  {s.chiral:>6}")
+        click.echo(
+            f"{s.k:<2} {s.order_types:>11}  {s.unique_min:>16}  {s.chiral:>6} | "
+            f"{s.up_to_reflection:>30}  {s.unique_min_up_to_reflection:>10}"
+        )
     click.echo("")
-    click.echo("Order types whose best realization has MP >= v (grid units); (paper) = Table 7")
-    header = "v    " + "".join(f"{'|D^' + str(s.k) + '|':>8}" for s in stats)
-    paper_ks = [s.k for s in stats if s.k in PAPER_TABLE7]
-    header += "".join(f"{'paper' + str(k):>8}" for k in paper_ks)
+    click.echo(
+        "Order types up to reflection whose best realization has MP >= v (grid units), beside the paper's Table 7"
+    )
+    shown = [s for s in stats if s.k >= 5]
+    header = "v    " + "".join(f"{'k=' + str(s.k):>8}" for s in shown)
+    header += "".join(f"{'paper' + str(s.k):>8}" for s in shown if s.k in PAPER_TABLE7)
     click.echo(header)
     for i, v in enumerate(MP_THRESHOLDS):
-        line = f"{v:<4.1f} " + "".join(f"{s.mp_at_least[v]:>8}" for s in stats)
-        line += "".join(f"{PAPER_TABLE7[k][i]:>8}" for k in paper_ks)
+        line = f"{v:<4.1f} " + "".join(f"{s.mp_at_least_up_to_reflection[v]:>8}" for s in shown)
+        line += "".join(f"{PAPER_TABLE7[s.k][i]:>8}" for s in shown if s.k in PAPER_TABLE7)
         click.echo(line)
 
 
@@ -388,8 +402,14 @@ class _StageProgress:
 
 @cli.command("generate")
 @click.option("--max-k", type=click.IntRange(3, 8), default=8, show_default=True, help="Largest number of points.")
-@click.option("--out", "out_dir", type=click.Path(path_type=Path, file_okay=False), default=Path("data"),
-              show_default=True, help="Folder for ottag-kNN.b08 files and manifest.json.")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=Path("data"),
+    show_default=True,
+    help="Folder for ottag-kNN.b08 files and manifest.json.",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="Same seed, same files.")
 @click.option("--jobs", type=click.IntRange(min=1), default=1, show_default=True, help="Worker processes.")
 @_quiet_option

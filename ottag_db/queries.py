@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -40,7 +40,10 @@ MP_THRESHOLDS: tuple[float, ...] = tuple(0.5 * i for i in range(1, 19))
 class KStats:
     """Counts for one k: order types (Table 2), unique minimum (Table 3), MP ≥ v (Table 7).
 
-    ``mp_at_least[v]`` counts order types whose best realization has MP ≥ v.
+    ``mp_at_least[v]`` counts order types whose best realization has MP ≥ v. The
+    ``*_up_to_reflection`` counts take a chiral pair once (as Aichholzer's files and the
+    paper's tables do): a chiral order type whose mirror is also stored counts only when its
+    canonical λ is the smaller of the two.
     """
 
     k: int
@@ -48,6 +51,9 @@ class KStats:
     unique_min: int
     chiral: int
     mp_at_least: dict[float, int]
+    up_to_reflection: int = 0
+    unique_min_up_to_reflection: int = 0
+    mp_at_least_up_to_reflection: dict[float, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -150,9 +156,14 @@ def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) ->
     best = _best_mp().subquery()
     with db.session() as s:
         rows = s.execute(
-            select(OrderType.k, OrderType.unique_min, OrderType.chiral, best.c.mp).join(
-                best, best.c.order_type_id == OrderType.id
-            )
+            select(
+                OrderType.k,
+                OrderType.unique_min,
+                OrderType.chiral,
+                best.c.mp,
+                OrderType.canonical_lambda,
+                OrderType.mirror_lambda,
+            ).join(best, best.c.order_type_id == OrderType.id)
         ).all()
     if not rows:
         return []
@@ -160,9 +171,13 @@ def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) ->
     uniq = np.array([bool(r[1]) for r in rows])
     chiral = np.array([bool(r[2]) for r in rows])
     mp = np.array([float(r[3]) for r in rows])
+    stored = {r[4] for r in rows}
+    # One per reflection pair: drop the chiral type whose mirror is stored with a smaller λ.
+    rep = np.array([not r[2] or r[5] not in stored or r[4] < r[5] for r in rows])
     out = []
     for k in sorted(set(ks.tolist())):
         sel = ks == k
+        pair = sel & rep
         out.append(
             KStats(
                 k=int(k),
@@ -170,6 +185,9 @@ def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) ->
                 unique_min=int(uniq[sel].sum()),
                 chiral=int(chiral[sel].sum()),
                 mp_at_least={float(v): int((mp[sel] >= v).sum()) for v in thresholds},
+                up_to_reflection=int(pair.sum()),
+                unique_min_up_to_reflection=int(uniq[pair].sum()),
+                mp_at_least_up_to_reflection={float(v): int((mp[pair] >= v).sum()) for v in thresholds},
             )
         )
     return out
