@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
 import numpy as np
@@ -213,14 +212,11 @@ def test_parse_length_and_page() -> None:
             parse_page(bad)
 
 
-@pytest.mark.slow
-def test_thirteen_thousand_tags_in_under_a_minute(tmp_path: Path) -> None:
+def test_many_tags_fill_pages_in_order(tmp_path: Path) -> None:
+    # Speed is measured by benchmarks/export_speed.py, not here.
     geoms = _geoms()
-    n = 2 * 6673
+    n = 500
     tags = [SheetTag(geoms[i % len(geoms)], f"{geoms[i % len(geoms)].k}:{i:05d}") for i in range(n)]
-    started = time.perf_counter()
     report = write_tag_sheet(tmp_path / "big.pdf", tags, SheetOptions(tag_size_mm=40.0))
-    elapsed = time.perf_counter() - started
-    assert elapsed < 60.0, f"{elapsed:.1f} s"
     assert report.pages == math.ceil(n / report.per_page)
     assert len(PdfReader(tmp_path / "big.pdf").pages) == report.pages
