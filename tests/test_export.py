@@ -64,6 +64,28 @@ def test_every_stored_layout_is_valid(laid_out_db: Path) -> None:
         db.close()
 
 
+def test_every_layout_of_the_bundled_database_is_valid(tmp_path: Path) -> None:
+    from ottag_db.bundled import bundled_point_files
+    from ottag_db.importer import import_point_file
+
+    db = open_database(tmp_path / "bundled.sqlite")
+    try:
+        for path, k in bundled_point_files():
+            import_point_file(db, path, n=k, with_mirrors=True)
+        assert ensure_layouts(db) == 6673 - 2  # every realization but the two of k = 4
+        counts = {5: 0, 6: 0, 7: 0, 8: 0}
+        with db.session() as s:
+            pairs = s.query(Realization, LayoutRow).join(LayoutRow, LayoutRow.realization_id == Realization.id)
+            for real, lay in pairs:
+                pts = real.points()
+                assert validate_layout(pts, lay.triangle_list()) == [], (real.id, lay.triangles)
+                if len(pts) in counts:
+                    counts[len(pts)] += 1
+        assert counts == {5: 3, 6: 20, 7: 242, 8: 6405}
+    finally:
+        db.close()
+
+
 def test_select_tags_and_lookup(laid_out_db: Path) -> None:
     db = open_database(laid_out_db)
     try:
