@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sqlite3
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -47,30 +48,36 @@ def reference_sets(otdb_dir: Path) -> dict[int, np.ndarray]:
     return {k: read_point_file(otdb_dir / f"otypes{k:02d}.b08") for k in range(3, 9)}
 
 
-@pytest.fixture(scope="session")
-def reference_db_path(otdb_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A database file with all reference files imported (no mirrors). Copy before mutating."""
-    path = tmp_path_factory.mktemp("refdb") / "reference.sqlite"
+def build_reference_db(path: Path, otdb: Path, *, with_mirrors: bool) -> Path:
+    """Import otypes03 … otypes08 into a new database at ``path``."""
     db = open_database(path)
     try:
         for k in range(3, 9):
-            import_point_file(db, otdb_dir / f"otypes{k:02d}.b08")
+            import_point_file(db, otdb / f"otypes{k:02d}.b08", with_mirrors=with_mirrors)
     finally:
         db.close()
     return path
+
+
+def dump_database(path: Path) -> list[str]:
+    """The SQL dump of a SQLite file: equal dumps mean an unchanged database."""
+    con = sqlite3.connect(path)
+    try:
+        return list(con.iterdump())
+    finally:
+        con.close()
+
+
+@pytest.fixture(scope="session")
+def reference_db_path(otdb_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A database file with all reference files imported (no mirrors). Copy before mutating."""
+    return build_reference_db(tmp_path_factory.mktemp("refdb") / "reference.sqlite", otdb_dir, with_mirrors=False)
 
 
 @pytest.fixture(scope="session")
 def mirrors_db_path(otdb_dir: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A database file with all reference files imported with their mirrors."""
-    path = tmp_path_factory.mktemp("mirrordb") / "mirrors.sqlite"
-    db = open_database(path)
-    try:
-        for k in range(3, 9):
-            import_point_file(db, otdb_dir / f"otypes{k:02d}.b08", with_mirrors=True)
-    finally:
-        db.close()
-    return path
+    """A database file with all reference files imported with their mirrors. Copy before mutating."""
+    return build_reference_db(tmp_path_factory.mktemp("mirrordb") / "mirrors.sqlite", otdb_dir, with_mirrors=True)
 
 
 @pytest.fixture

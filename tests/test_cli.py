@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import sqlite3
 from pathlib import Path
 
 import pytest
@@ -12,17 +11,9 @@ from click.testing import CliRunner
 
 from ottag_db.cli import cli
 
-from .conftest import FIG8, TABLE9
+from .conftest import FIG8, TABLE9, dump_database
 
 TABLE9_TEXT = "7:" + "".join(str(v) for row in TABLE9 for v in row)
-
-
-def _dump(path: Path) -> list[str]:
-    con = sqlite3.connect(path)
-    try:
-        return list(con.iterdump())
-    finally:
-        con.close()
 
 
 @pytest.fixture
@@ -139,11 +130,11 @@ def test_db_current_and_upgrade(runner: CliRunner, tmp_path: Path) -> None:
 
 # ----------------------------------------------------------------------------- bad input
 def _assert_fails_unchanged(runner: CliRunner, db: Path, args: list[str], code: int, message: str) -> None:
-    before = _dump(db)
+    before = dump_database(db)
     res = runner.invoke(cli, ["import", "--db", str(db), *args])
     assert res.exit_code == code, (res.stdout, res.stderr)
     assert message in res.stderr, res.stderr
-    assert _dump(db) == before
+    assert dump_database(db) == before
 
 
 def test_bad_inputs_leave_database_unchanged(runner: CliRunner, refdb: Path, otdb_dir: Path, tmp_path: Path) -> None:

@@ -16,17 +16,7 @@ from ottag_db.models import OrderType, Realization
 from ottag_db.pointfile import write_point_file
 from ottag_db.queries import database_stats
 
-from .conftest import TABLE9
-
-
-def _dump(path: Path) -> list[str]:
-    import sqlite3
-
-    con = sqlite3.connect(path)
-    try:
-        return list(con.iterdump())
-    finally:
-        con.close()
+from .conftest import TABLE9, dump_database
 
 
 def test_import_counts_and_noop(otdb_dir: Path, tmp_path: Path) -> None:
@@ -98,7 +88,7 @@ def test_stored_labeling_and_fig4(reference_db_path: Path) -> None:
 def test_failed_import_leaves_database_unchanged(otdb_dir: Path, reference_db_path: Path, tmp_path: Path) -> None:
     path = tmp_path / "copy.sqlite"
     shutil.copyfile(reference_db_path, path)
-    before = _dump(path)
+    before = dump_database(path)
     good = np.fromfile(otdb_dir / "otypes06.b08", dtype=np.uint8).reshape(-1, 6, 2).astype(np.int64)
     pts = np.tile(good, (1250, 1, 1))  # 20000 records in general position, several chunks
     pts[19000] = [[0, 0], [10, 10], [20, 20], [5, 90], [90, 4], [200, 100]]  # collinear, in chunk 3
@@ -110,4 +100,4 @@ def test_failed_import_leaves_database_unchanged(otdb_dir: Path, reference_db_pa
             import_point_file(db, bad, n=6)
     finally:
         db.close()
-    assert _dump(path) == before
+    assert dump_database(path) == before
