@@ -37,7 +37,8 @@ def main() -> None:
         print(f"layouts and placements of {added} realizations: {time.perf_counter() - t:.1f} s")
         out = Path(tmp) / "all.pdf"
         t = time.perf_counter()
-        res = runner.invoke(cli, ["export", "--db", db, "--quiet", "--polarity", "both", "--tag-size", "40mm", str(out)])
+        args = ["export", "--db", db, "--quiet", "--polarity", "both", "--tag-size", "40mm", str(out)]
+        res = runner.invoke(cli, args)
         elapsed = time.perf_counter() - t
         assert res.exit_code == 0, res.output
         print(f"export --polarity both --tag-size 40mm: {elapsed:.1f} s (target < 60 s)")

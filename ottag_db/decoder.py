@@ -260,6 +260,14 @@ class Detector:
     labeling is mapped onto the points by a homography and the best fit must stay within
     the reprojection bound (and the data-area corners must map back to a parallelogram).
     With ``verify=False`` the decision is the paper's: the order type alone.
+
+    When a candidate does not read, the reader tries (in this order, all bounded): alternative
+    decompositions (the opening, slit cuts, and *strict* fits that also cut at every reflex
+    corner of the polygon approximation and do not let a small triangle hanging at a corner
+    pass as part of a large one); the data area upsampled 2× (cubic) for slivers and slits
+    about a pixel wide; and, for a reading whose smallest margin is below ``min_margin_px``
+    because of exactly one near-collinear triple, both sides of that triple, accepted only
+    when exactly one verifies and its mapped realization keeps ``min_margin_px``.
     """
 
     def __init__(self, lookup: TagLookup, **params: Any):
@@ -275,6 +283,7 @@ class Detector:
         self.lookup = lookup
         self._ks = frozenset(lookup.ks)
         self.last_rejections: list[Rejected] = []
+        self._alternatives = True  # the 2× upsampled re-read tries the plain decompositions only
 
     @classmethod
     def from_database(cls, path_or_url: str | None = None, dictionary: str | None = None, **params: Any) -> Detector:
@@ -323,6 +332,12 @@ class Detector:
                 if _around_detection(quad, detections):
                     continue
                 result = self._read(gray, quad)
+                if (
+                    isinstance(result, Rejected)
+                    and result.reason in _RETRY_UPSAMPLED
+                    and result.detail != _NO_DECOMPOSITION
+                ):
+                    result = self._read_upsampled(gray, quad, result)
                 if isinstance(result, Rejected):
                     rejected.append(result)
                 elif not any(_same_tag(result, d) for d in detections):
@@ -422,9 +437,9 @@ class Detector:
         decomps = self._triangles(fg, side, alternatives=False)
         if isinstance(decomps, str):
             # no plain decomposition: try the alternatives (opening, slit cuts) right away
-            decomps = self._triangles(fg, side, alternatives=True)
+            decomps = self._triangles(fg, side, alternatives=self._alternatives)
             if isinstance(decomps, str):
-                return reject(decomps)
+                return reject(decomps, _NO_DECOMPOSITION if decomps == "non_triangle" else "")
         if not decomps or decomps[0].count == 0:
             return reject("no_triangles")
         if decomps[0].count > _MAX_TRIANGLES:
@@ -440,7 +455,10 @@ class Detector:
         tol = max(p.merge_radius_px, p.merge_radius_rel * side)
         sure = max(2 * p.merge_radius_px, 2 * p.merge_radius_rel * side)
         first: Rejected | None = None
-        for tris in _then_alternatives(decomps, lambda: self._triangles(fg, side, alternatives=True)):
+        more: Callable[[], list[_Triangles] | str] = (
+            (lambda: self._triangles(fg, side, alternatives=True)) if self._alternatives else (lambda: "none")
+        )
+        for tris in _then_alternatives(decomps, more):
             # Sub-pixel triangle sides on the grey image.
             n_t, c_t = _fit_chains(tris.chains)
             n_t, c_t = _refine_lines(roi_f, n_t, c_t, _triangle_vertices(n_t, c_t), 3, t_mid)
@@ -459,6 +477,69 @@ class Detector:
                 if first is None or first.reason == "non_triangle":
                     first = result
         return first if first is not None else reject("non_triangle", "degenerate vertex")
+
+    def _read_upsampled(self, gray: NDArray[np.uint8], quad: _Quad, first: Rejected) -> Detection | Rejected:
+        """Read a candidate again on its data area upsampled 2× (cubic), for slivers and slits
+        about a pixel wide that the binary mask at the image's own scale merges or loses.
+
+        Lengths in the parameters are scaled with the image, except ``min_margin_px`` and the
+        reprojection floor, which keep their meaning in image pixels (checked after mapping the
+        reading back). Returns ``first`` when this reading fails too.
+        """
+        side = math.sqrt(quad.area)
+        if side > _UPSAMPLE_MAX_SIDE:
+            return first
+        h, w = gray.shape
+        q = quad.corners
+        x0 = max(math.floor(q[:, 0].min()) - 6, 0)
+        y0 = max(math.floor(q[:, 1].min()) - 6, 0)
+        x1 = min(math.ceil(q[:, 0].max()) + 7, w)
+        y1 = min(math.ceil(q[:, 1].max()) + 7, h)
+        f = 2.0
+        up: NDArray[np.uint8] = np.asarray(
+            cv2.resize(gray[y0:y1, x0:x1], None, fx=f, fy=f, interpolation=cv2.INTER_CUBIC), dtype=np.uint8
+        )
+        # pixel centres: up pixel u lies at x = x0 + (u + 0.5) / f − 0.5 of the image
+        shift = np.array([x0 + 0.5 / f - 0.5, y0 + 0.5 / f - 0.5])
+        sub = self._upsampled_detector(f)
+        res = sub._read(up, _Quad(quad.polarity, (q - shift) * f, quad.area * f * f))
+        if not isinstance(res, Detection):
+            return first
+        margin = res.margin_px / f
+        if margin < self.params.min_margin_px:
+            return first
+        to_img = np.array([[1 / f, 0, shift[0]], [0, 1 / f, shift[1]], [0, 0, 1.0]])
+        hom = None if res.homography is None else to_img @ res.homography
+        if hom is not None:
+            hom = hom / hom[2, 2]
+        return replace(
+            res,
+            points=res.points / f + shift,
+            corners=res.corners / f + shift,
+            homography=hom,
+            reprojection_error_px=None if res.reprojection_error_px is None else res.reprojection_error_px / f,
+            margin_px=margin,
+        )
+
+    def _upsampled_detector(self, f: float) -> Detector:
+        sub = self.__dict__.get("_up_detector")
+        if sub is None:
+            p = self.params
+            sub = Detector(
+                self.lookup,
+                **{
+                    **{fl.name: getattr(p, fl.name) for fl in fields(DetectorParams)},
+                    "min_quad_area_px": p.min_quad_area_px * f * f,
+                    "min_quad_side_px": p.min_quad_side_px * f,
+                    "min_triangle_area_px": p.min_triangle_area_px * f * f,
+                    "merge_radius_px": p.merge_radius_px * f,
+                    "min_margin_px": p.min_margin_px * f,
+                    "max_reproj_px": p.max_reproj_px * f,
+                },
+            )
+            sub._alternatives = False
+            self.__dict__["_up_detector"] = sub
+        return sub
 
     def _identify(self, pts: _F64, lines: list[tuple[_F64, _F64]], corners: _F64, quad: _Quad) -> Detection | Rejected:
         """ID, lookup and verification of one point hypothesis (image pixels).
@@ -481,7 +562,8 @@ class Detector:
         best_mat = orderings[0][1]
         lam = lambda_text(best_mat)
         if margin < p.min_margin_px:
-            return reject("low_margin", f"margin {margin:.2f} px", lam)
+            low = reject("low_margin", f"margin {margin:.2f} px", lam)
+            return self._disambiguate(pts, lines, corners, quad, margin, low) if p.verify else low
         minimal = [lab for lab, mat in orderings if np.array_equal(mat, best_mat)]
         entry = self.lookup.get(lam)
         if entry is None:
@@ -499,6 +581,60 @@ class Detector:
                 return reject("polarity_not_in_dictionary", f"member only as {'/'.join(sorted(tags))}", lam)
             entry = replace(entry, tag=int(number))
         return self._verify(entry, pts, lines, minimal, corners, quad, margin, lam)
+
+    def _disambiguate(
+        self, pts: _F64, lines: list[tuple[_F64, _F64]], corners: _F64, quad: _Quad, margin: float, low: Rejected
+    ) -> Detection | Rejected:
+        """A reading with one point nearly on the line through two others: read both sides.
+
+        The point is put on either side of the line (at ``min_margin_px``); each reading is
+        looked up and verified on the same side lines. Exactly one must verify, and the
+        realization it maps into the image must itself keep ``min_margin_px``; else ``low``.
+        """
+        p = self.params
+        k = len(pts)
+        i, j = np.triu_indices(k, 1)
+        d = pts[j] - pts[i]
+        ln = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-12)
+        cross = d[:, None, 0] * (pts[None, :, 1] - pts[i][:, None, 1]) - d[:, None, 1] * (
+            pts[None, :, 0] - pts[i][:, None, 0]
+        )
+        dist = np.abs(cross) / ln[:, None]
+        idx = np.arange(k)
+        dist[(idx[None, :] == i[:, None]) | (idx[None, :] == j[:, None])] = np.inf
+        rows, cols = np.nonzero(dist < p.min_margin_px)
+        near = {tuple(sorted((int(i[u]), int(j[u]), int(v)))) for u, v in zip(rows, cols, strict=True)}
+        if len(near) != 1:
+            return low  # more than one near-collinear triple: too many readings
+        r, pt = np.unravel_index(int(np.argmin(dist)), dist.shape)
+        nrm = np.array([-d[r, 1], d[r, 0]]) / ln[r]
+        s = float(nrm @ (pts[pt] - pts[i[r]]))
+        found: list[Detection] = []
+        for side in (1.0, -1.0):
+            moved = pts.copy()
+            moved[pt] += (side * p.min_margin_px - s) * nrm
+            if _margin(moved) <= 0:
+                return low
+            orderings = canonical_orderings(moved)
+            best_mat = orderings[0][1]
+            lam = lambda_text(best_mat)
+            entry = self.lookup.get(lam)
+            if entry is None:
+                continue
+            tags = entry.extra.get("tags") if entry.extra else None
+            if isinstance(tags, Mapping):
+                number = tags.get(quad.polarity)
+                if number is None:
+                    continue
+                entry = replace(entry, tag=int(number))
+            minimal = [lab for lab, mat in orderings if np.array_equal(mat, best_mat)]
+            res = self._verify(entry, pts, lines, minimal, corners, quad, margin, lam)
+            if isinstance(res, Detection) and res.homography is not None and res.model_points is not None:
+                if _margin(_apply_h(res.homography, res.model_points)) >= p.min_margin_px:
+                    found.append(res)
+            elif isinstance(res, Detection):
+                return low  # verified without a realization to check: undecided
+        return found[0] if len(found) == 1 else low
 
     def _verify(
         self,
@@ -603,6 +739,7 @@ class Detector:
         min_area = max(p.min_triangle_area_px, 2e-4 * side * side)
         max_area = 0.45 * side * side  # no triangle of a tag covers half its data area
         options: list[list[list[NDArray[np.float64]]]] = []
+        budget = [2 * _STRICT_BUDGET]  # strict triangle fits of all components together
         for i, c in enumerate(contours):
             if hh[i][3] >= 0 or len(c) < 8:
                 continue
@@ -627,7 +764,7 @@ class Detector:
                     pts = _bridge(pts, hole)
                 child = hh[child][0]
             alts = _component_decompositions(
-                pts, lambda i=i: _triangles_by_opening(fg, contours, hier, i), alternatives
+                pts, lambda i=i: _triangles_by_opening(fg, contours, hier, i), alternatives, budget
             )
             if not alts:
                 return "non_triangle"
@@ -707,7 +844,7 @@ def _otsu(hist: NDArray[Any]) -> tuple[int, float, float] | None:
     return t, float(m0[t]), float(m1[t])
 
 
-def _triangle_fit(pts: NDArray[Any]) -> list[NDArray[np.float64]] | None:
+def _triangle_fit(pts: NDArray[Any], strict: float = 0.0) -> list[NDArray[np.float64]] | None:
     """Side chains of a closed contour that is one triangle, or None.
 
     Corners: the two farthest contour points and the point farthest from their line (paper
@@ -758,6 +895,8 @@ def _triangle_fit(pts: NDArray[Any]) -> list[NDArray[np.float64]] | None:
     c_area = abs(float(cv2.contourArea(c)))
     if t_area <= 0 or abs(c_area - t_area) > 0.2 * t_area + 0.25 * perim:
         return None
+    if strict and _off_triangle(flat.astype(np.float64), tri, strict) > max(3, 0.02 * n):
+        return None  # a small triangle hanging at a corner (hidden by the corner trims below)
     chains: list[NDArray[np.float64]] = []
     far = 0
     for a, b in ((idx[0], idx[1]), (idx[1], idx[2]), (idx[2], idx[0] + n)):
@@ -789,6 +928,20 @@ def _triangle_fit(pts: NDArray[Any]) -> list[NDArray[np.float64]] | None:
     return chains
 
 
+def _off_triangle(pts: _F64, tri: _F64, tol_px: float) -> int:
+    """How many contour points lie farther than ``max(tol_px, 0.6 %`` of the longest side) from
+    every side segment of the triangle ``tri``."""
+    a = tri
+    d = np.roll(tri, -1, axis=0) - a
+    ln2 = np.maximum((d * d).sum(axis=1), 1e-12)
+    rel = pts[:, None, :] - a[None, :, :]  # (n, 3, 2)
+    u = np.clip((rel * d[None]).sum(axis=2) / ln2[None], 0.0, 1.0)
+    off = rel - u[..., None] * d[None]
+    dist2 = (off * off).sum(axis=2).min(axis=1)
+    tol = max(tol_px, 0.006 * math.sqrt(float(ln2.max())))
+    return int((dist2 > tol * tol).sum())
+
+
 def _bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
     """One contour running around ``outer`` and, through their closest points, ``hole``."""
 
@@ -806,7 +959,15 @@ def _bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
     return np.concatenate([outer[: i + 1], hole[j:], hole[: j + 1], outer[i:]])
 
 
-_MAX_DECOMPOSITIONS = 6
+_MAX_DECOMPOSITIONS = 10
+#: Rejections after triangles were found: the reader tries the data area upsampled 2× then.
+_RETRY_UPSAMPLED = frozenset(
+    {"non_triangle", "point_count", "general_position", "low_margin", "unknown_id", "verification", "quad_inconsistent"}
+)
+#: Larger data areas (px) are not upsampled (their slivers are wide enough; bounds the cost).
+_UPSAMPLE_MAX_SIDE = 640.0
+_STRICT_BUDGET = 80
+_NO_DECOMPOSITION = "a component is not a union of triangles"
 #: More triangles than this cannot hold 8 points (each triangle has 3 of them, two triangles share
 #: at most one): the component soup of a non-tag.
 _MAX_TRIANGLES = 12
@@ -828,7 +989,10 @@ def _then_alternatives(first: list[_Triangles], more: Callable[[], list[_Triangl
 
 
 def _component_decompositions(
-    pts: NDArray[Any], opening: Callable[..., list[NDArray[np.float64]] | None], alternatives: bool = True
+    pts: NDArray[Any],
+    opening: Callable[..., list[NDArray[np.float64]] | None],
+    alternatives: bool = True,
+    budget: list[int] | None = None,
 ) -> list[list[NDArray[np.float64]]]:
     """Alternative triangle decompositions of one component contour, most plausible first.
 
@@ -847,7 +1011,7 @@ def _component_decompositions(
     first = next(_split_triangles(pts, 0, False), None)
     if first is not None:
         add(first)
-        if len(first) == 3 or not alternatives:
+        if not alternatives or (len(first) == 3 and _triangle_fit(pts, strict=1.5) is not None):
             return out  # one triangle: nothing to reconsider
     opened = opening()
     if opened is not None:
@@ -858,10 +1022,18 @@ def _component_decompositions(
         add(alt)
         if len(out) >= 4:
             break
+    # strict fits: a small triangle hanging at a corner of a large one is not absorbed
+    if budget is None:
+        budget = [_STRICT_BUDGET]  # triangle fits: bounds the work on non-tags (text, markers)
+    for tol_px, notch in itertools.product((1.5, 2.5), (False, True)):
+        for strict in itertools.islice(_split_triangles(pts, 0, notch, tol_px, budget), 2):
+            add(strict)
     return out
 
 
-def _split_triangles(pts: NDArray[Any], depth: int, notch: bool) -> Iterator[list[NDArray[np.float64]]]:
+def _split_triangles(
+    pts: NDArray[Any], depth: int, notch: bool, strict: float = 0.0, budget: list[int] | None = None
+) -> Iterator[list[NDArray[np.float64]]]:
     """Triangles of a contour that may be several triangles joined at shared vertices.
 
     A union of triangles meeting at a vertex has concave corners there (convexity defects) on
@@ -871,7 +1043,11 @@ def _split_triangles(pts: NDArray[Any], depth: int, notch: bool) -> Iterator[lis
     :func:`_notch_cuts`), and both halves are fitted again, recursively. Yields the
     decompositions found, in the order of the cuts.
     """
-    tri = _triangle_fit(pts)
+    if budget is not None:
+        if budget[0] <= 0:
+            return
+        budget[0] -= 1
+    tri = _triangle_fit(pts, strict)
     if tri is not None:
         yield tri
         return
@@ -887,11 +1063,18 @@ def _split_triangles(pts: NDArray[Any], depth: int, notch: bool) -> Iterator[lis
     if defects is None:
         return
     dfs = defects.reshape(-1, 4)
+    if strict:
+        # every reflex corner of the polygon approximation (a union of triangles meeting at
+        # vertices has its reflex corners exactly at the shared vertices; a hull gap holding
+        # several of them gives only one convexity defect)
+        extra = _reflex_corners(pts)
+        if len(extra):
+            dfs = np.concatenate([dfs, extra[~np.isin(extra[:, 2], dfs[:, 2])]])
     dfs = dfs[dfs[:, 3] >= 180]  # deeper than 0.7 px
     if len(dfs) == 0:
         return
     flat = pts.reshape(-1, 2).astype(np.float64)
-    min_sep = max(8, n // 12)
+    min_sep = 8 if strict else max(8, n // 12)  # strict: tiny triangles at a pinch too
     far_pts = np.unique(dfs[:, 2])
     # cuts between two concave points (both sides of a shared vertex), shortest first; then
     # from a concave point to a contour point at most 3 px away (a pinch the hull hides)
@@ -907,7 +1090,7 @@ def _split_triangles(pts: NDArray[Any], depth: int, notch: bool) -> Iterator[lis
     cuts.sort()
     cuts = cuts[:5]
     idx = np.arange(n)
-    for far in dfs[np.argsort(-dfs[:, 3])][:3, 2]:
+    for far in dfs[np.argsort(-dfs[:, 3])][: 12 if strict else 3, 2]:
         i = int(far)
         arc = np.abs(idx - i)
         arc = np.minimum(arc, n - arc)
@@ -925,15 +1108,54 @@ def _split_triangles(pts: NDArray[Any], depth: int, notch: bool) -> Iterator[lis
             continue
         tried.add((a, b))
         rights: list[list[NDArray[np.float64]]] | None = None
-        for left in _split_triangles(pts[a : b + 1], depth + 1, notch):
+        for left in _split_triangles(pts[a : b + 1], depth + 1, notch, strict, budget):
             if rights is None:
-                rights = list(
-                    itertools.islice(_split_triangles(np.concatenate([pts[b:], pts[: a + 1]]), depth + 1, notch), 2)
-                )
+                rest = np.concatenate([pts[b:], pts[: a + 1]])
+                rights = list(itertools.islice(_split_triangles(rest, depth + 1, notch, strict, budget), 2))
             if not rights:
                 break
             for right in rights:
                 yield left + right
+
+
+def _reflex_corners(pts: NDArray[Any]) -> NDArray[np.int64]:
+    """Reflex corners of a contour's polygon approximation as convexity-defect rows
+    ``(start, end, corner, depth × 256)``: start/end the neighbouring polygon corners, depth the
+    corner's distance from their chord (contour indices)."""
+    n = len(pts)
+    flat = pts.reshape(-1, 2)
+    c = flat.reshape(-1, 1, 2).astype(np.int32)
+    poly = cv2.approxPolyDP(c, 1.0, True).reshape(-1, 2)
+    m = len(poly)
+    if m < 4:
+        return np.zeros((0, 4), dtype=np.int64)
+    # contour index of every polygon corner (approxPolyDP keeps contour order)
+    idx = np.empty(m, dtype=np.int64)
+    k = 0
+    for r in range(m):
+        hits = np.nonzero((flat[k:, 0] == poly[r, 0]) & (flat[k:, 1] == poly[r, 1]))[0]
+        if len(hits) == 0:
+            hits = np.nonzero((flat[:, 0] == poly[r, 0]) & (flat[:, 1] == poly[r, 1]))[0]
+            if len(hits) == 0:
+                return np.zeros((0, 4), dtype=np.int64)
+            k = int(hits[0])
+        else:
+            k += int(hits[0])
+        idx[r] = k
+    pf = poly.astype(np.float64)
+    prv = np.roll(pf, 1, axis=0)
+    nxt = np.roll(pf, -1, axis=0)
+    cross = (pf[:, 0] - prv[:, 0]) * (nxt[:, 1] - pf[:, 1]) - (pf[:, 1] - prv[:, 1]) * (nxt[:, 0] - pf[:, 0])
+    orient = np.sign(float(cv2.contourArea(c, oriented=True)))
+    # OpenCV's oriented area is positive for a clockwise contour on screen (y down), whose
+    # convex corners then turn with a positive cross product
+    reflex = cross * orient < 0
+    chord = nxt - prv
+    depth = np.abs(chord[:, 0] * (pf[:, 1] - prv[:, 1]) - chord[:, 1] * (pf[:, 0] - prv[:, 0]))
+    depth /= np.maximum(np.hypot(chord[:, 0], chord[:, 1]), 1e-9)
+    rows: NDArray[np.int64] = np.stack([np.roll(idx, 1), np.roll(idx, -1), idx, (depth * 256).astype(np.int64)], axis=1)
+    out: NDArray[np.int64] = rows[reflex & (idx < n)]
+    return out
 
 
 def _notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[tuple[float, int, int]]:
@@ -1098,21 +1320,32 @@ def _lines_through(poly: _F64) -> tuple[_F64, _F64]:
 
 def _intersect(n1: _F64, c1: _F64, n2: _F64, c2: _F64) -> _F64:
     det = n1[:, 0] * n2[:, 1] - n1[:, 1] * n2[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = (c1 * n2[:, 1] - c2 * n1[:, 1]) / det
-        y = (n1[:, 0] * c2 - n2[:, 0] * c1) / det
-    out: _F64 = np.stack([x, y], axis=1)
+    det[det == 0] = np.nan  # parallel lines: no intersection (NaN, without a warning)
+    out: _F64 = np.empty((len(det), 2))
+    out[:, 0] = (c1 * n2[:, 1] - c2 * n1[:, 1]) / det
+    out[:, 1] = (n1[:, 0] * c2 - n2[:, 0] * c1) / det
     return out
 
 
 def _polygon_vertices(normal: _F64, offset: _F64, m: int) -> _F64:
     """Vertices of polygons of ``m`` sides each: vertex j = side j−1 ∩ side j."""
-    n = normal.reshape(-1, m, 2)
-    c = offset.reshape(-1, m)
-    prev_n = np.roll(n, 1, axis=1).reshape(-1, 2)
-    prev_c = np.roll(c, 1, axis=1).ravel()
-    v = _intersect(prev_n, prev_c, n.reshape(-1, 2), c.ravel())
+    prev = _prev_index(len(offset), m)
+    v = _intersect(normal[prev], offset[prev], normal, offset)
     return v.reshape(-1, m, 2) if m != 4 else v.reshape(-1, 2)
+
+
+def _prev_index(s: int, m: int) -> NDArray[np.intp]:
+    """Index of side j−1 of the same polygon for every side of ``s / m`` polygons of ``m`` sides."""
+    i = np.arange(s)
+    out: NDArray[np.intp] = i - i % m + (i - 1) % m
+    return out
+
+
+def _next_index(s: int, m: int) -> NDArray[np.intp]:
+    """Index of side j+1 of the same polygon (see :func:`_prev_index`)."""
+    i = np.arange(s)
+    out: NDArray[np.intp] = i - i % m + (i + 1) % m
+    return out
 
 
 def _triangle_vertices(normal: _F64, offset: _F64) -> _F64:
@@ -1140,58 +1373,60 @@ def _refine_lines(
     make needle tips overshoot along their axis.
     """
     a = verts.reshape(-1, 2)
-    b = np.roll(verts, -1, axis=1).reshape(-1, 2)
     s = len(a)
-    finite = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
-    a = np.where(np.asarray(finite)[:, None], a, 0.0)
-    b = np.where(np.asarray(finite)[:, None], b, 0.0)
-    n_s = 16
-    fr = np.linspace(0.08, 0.92, n_s)
-    base = a[:, None, :] + fr[None, :, None] * (b - a)[:, None, :]  # (S, M, 2)
+    b = a[_next_index(s, m)]
+    finite: NDArray[np.bool_] = np.asarray(np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1), dtype=bool)
+    if not finite.all():
+        a = np.where(finite[:, None], a, 0.0)
+        b = np.where(finite[:, None], b, 0.0)
+    n_s = len(_REFINE_FR)
+    sd = b - a
+    base = a[:, None, :] + _REFINE_FR[None, :, None] * sd[:, None, :]  # (S, M, 2)
     # project base points onto the current lines
-    dist = (base * normal[:, None, :]).sum(axis=2) - offset[:, None]
-    base = base - dist[:, :, None] * normal[:, None, :]
-    wide = np.ones((s, n_s), dtype=bool)
+    dist = base @ normal[:, :, None]  # (S, M, 1)
+    base -= (dist - offset[:, None, None]) * normal[:, None, :]
     if m == 3:
         # distance of every sample to every other side segment
-        sd = b - a
         ln2 = np.maximum((sd * sd).sum(axis=1), 1e-12)
         rel = base[:, :, None, :] - a[None, None, :, :]  # (S, M, S, 2)
-        u = np.clip((rel * sd[None, None]).sum(axis=3) / ln2[None, None], 0.0, 1.0)
-        gap = np.linalg.norm(rel - u[..., None] * sd[None, None], axis=3)
+        u = np.clip(np.einsum("ijkl,kl->ijk", rel, sd) / ln2, 0.0, 1.0)
+        rel -= u[..., None] * sd
+        gap = np.einsum("ijkl,ijkl->ijk", rel, rel)
         gap[np.arange(s), :, np.arange(s)] = np.inf
-        width = gap.min(axis=2)  # (S, M)
+        width = np.sqrt(gap.min(axis=2))  # (S, M)
         thr = np.minimum(3.0, 0.6 * width.max(axis=1))
         wide = width >= thr[:, None]
-    offs = np.linspace(-3.0, 3.0, 13)
+    else:
+        wide = np.ones((s, n_s), dtype=bool)
+    offs = _REFINE_OFFS
+    n_o = len(offs)
     samp = base[:, :, None, :] + offs[None, None, :, None] * normal[:, None, None, :]  # (S, M, O, 2)
-    mx = samp[..., 0].astype(np.float32).reshape(-1, 13)
-    my = samp[..., 1].astype(np.float32).reshape(-1, 13)
-    vals = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    vals = vals.reshape(s, n_s, 13).astype(np.float64) - level
+    samp32 = samp.astype(np.float32).reshape(-1, n_o, 2)
+    vals = cv2.remap(img, samp32, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload]
+    vals = vals.reshape(s, n_s, n_o).astype(np.float64) - level
     above = vals > 0
     change = above[:, :, 1:] != above[:, :, :-1]  # crossing between o and o+1
-    mid = np.abs(0.5 * (offs[1:] + offs[:-1]))
-    score = np.where(change, mid[None, None, :], np.inf)
-    j = np.argmin(score, axis=2)
-    valid = np.isfinite(np.take_along_axis(score, j[..., None], axis=2)[..., 0]) & wide
-    v0 = np.take_along_axis(vals, j[..., None], axis=2)[..., 0]
-    v1 = np.take_along_axis(vals, (j + 1)[..., None], axis=2)[..., 0]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frac = np.where(v1 != v0, v0 / (v0 - v1), 0.5)
-    o = offs[j] + frac * (offs[1] - offs[0])
+    score = np.where(change, _REFINE_MID, np.inf)
+    j = np.argmin(score, axis=2)[..., None]
+    valid = change.any(axis=2) & wide
+    v0 = np.take_along_axis(vals, j, axis=2)[..., 0]
+    v1 = np.take_along_axis(vals, j + 1, axis=2)[..., 0]
+    den = v0 - v1
+    step = den != 0
+    frac = np.where(step, v0 / np.where(step, den, 1.0), 0.5)
+    o = offs[j[..., 0]] + frac * (offs[1] - offs[0])
     pts = base + o[:, :, None] * normal[:, None, :]
     w = valid.astype(np.float64)
     cnt = w.sum(axis=1)
     good = (cnt >= 3) & finite
     cnt_safe = np.maximum(cnt, 1)
-    mx_ = (w * pts[..., 0]).sum(axis=1) / cnt_safe
-    my_ = (w * pts[..., 1]).sum(axis=1) / cnt_safe
-    dx = pts[..., 0] - mx_[:, None]
-    dy = pts[..., 1] - my_[:, None]
-    n2, c2 = _lines_from_moments(
-        mx_, my_, (w * dx * dx).sum(axis=1), (w * dx * dy).sum(axis=1), (w * dy * dy).sum(axis=1)
-    )
+    px, py = pts[..., 0], pts[..., 1]
+    mx_ = (w * px).sum(axis=1) / cnt_safe
+    my_ = (w * py).sum(axis=1) / cnt_safe
+    dx = px - mx_[:, None]
+    dy = py - my_[:, None]
+    wdx = w * dx
+    n2, c2 = _lines_from_moments(mx_, my_, (wdx * dx).sum(axis=1), (wdx * dy).sum(axis=1), (w * dy * dy).sum(axis=1))
     # keep the orientation of the old normal
     flip = (n2 * normal).sum(axis=1) < 0
     n2[flip] *= -1
@@ -1199,13 +1434,19 @@ def _refine_lines(
     return np.where(good[:, None], n2, normal), np.where(good, c2, offset)
 
 
+_REFINE_FR = np.linspace(0.08, 0.92, 16)
+_REFINE_OFFS = np.linspace(-3.0, 3.0, 13)
+_REFINE_MID = np.abs(0.5 * (_REFINE_OFFS[1:] + _REFINE_OFFS[:-1]))
+
+
 def _ls_point(normal: _F64, offset: _F64) -> tuple[_F64, float]:
     """Least-squares intersection of lines ``n·x = c`` and the largest line distance to it."""
-    a = normal.T @ normal
-    b = normal.T @ offset
-    if abs(float(np.linalg.det(a))) < 1e-9:
+    (a00, a01), (a10, a11) = (normal.T @ normal).tolist()
+    b0, b1 = (normal.T @ offset).tolist()
+    det = a00 * a11 - a01 * a10
+    if abs(det) < 1e-9:
         return np.full(2, np.nan), math.inf
-    x: _F64 = np.asarray(np.linalg.solve(a, b), dtype=np.float64)
+    x: _F64 = np.array([(b0 * a11 - a01 * b1) / det, (a00 * b1 - a10 * b0) / det])
     return x, float(np.abs(normal @ x - offset).max())
 
 

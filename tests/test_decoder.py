@@ -286,3 +286,23 @@ def test_sixteen_bit_and_rgba_decode(reference):
     rgba = cv2.cvtColor(image, cv2.COLOR_GRAY2BGRA)
     assert [d.lambda_ for d in det.detect(rgba)] == expect
     assert math.isfinite(det.detect(image)[0].margin_px)
+
+
+# ---------------------------------------------------------------------- splitter internals
+def test_strict_fit_splits_small_triangle_hanging_at_a_corner():
+    """A small triangle touching a large one at its vertex passes the loose fit (its contour
+    lies in the trimmed corner ends) but not the strict one, which splits the two apart."""
+    from ottag_db import decoder as dec
+
+    img = np.zeros((300, 300), np.uint8)
+    big = np.array([[20, 20], [280, 140], [110, 230]], np.int32)
+    small = np.array([[110, 230], [80, 232], [112, 262]], np.int32)  # shares the vertex (110, 230)
+    cv2.fillPoly(img, [big, small], 255)
+    contours, _ = cv2.findContours(img, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    assert len(contours) == 1
+    pts = contours[0].reshape(-1, 2)
+    assert dec._triangle_fit(pts) is not None  # the loose fit absorbs the small triangle
+    assert dec._triangle_fit(pts, strict=1.5) is None
+    assert len(dec._reflex_corners(pts)) >= 1
+    splits = list(dec._split_triangles(pts, 0, False, 1.5, [80]))
+    assert any(len(chains) == 6 for chains in splits)  # two triangles

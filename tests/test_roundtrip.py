@@ -5,8 +5,8 @@ then λ; about 320 of 6405), of a database built from the reference files with m
 both polarities (normal then inverted, as ``export_sheet(polarity="both")`` draws them), on A4
 sheets with the default 40 mm tags, rasterized with pdfium at 150 and 300 dpi (grey, anti-aliased,
 no blur or noise). Every tag must decode at its own cell with the right order type and polarity,
-and nothing else may decode (zero wrong IDs); the number of tags that do not decode is
-bounded (``MAX_MISSING``, the goal is none). The only tags not counted as missing are those whose printed point-to-line
+and nothing else may decode (zero wrong IDs), and every tag must decode (zero missing). The only
+tags not counted as missing are those whose printed point-to-line
 margin (2 × printed MP) is below ``MIN_MARGIN_PX`` at that resolution: the decoder rejects
 readings under ``min_margin_px`` = 1 px by design, so such a tag is unreadable at that dpi; the
 test prints how many there were (none among the sampled tags at 300 dpi).
@@ -32,7 +32,6 @@ K8_STEP = 20  # every 20th k = 8 order type
 DPIS = (150, 300)
 MIN_MARGIN_PX = 1.5  # printed margin needed to require a decode (decoder threshold 1 px + slack)
 POLARITIES = ("normal", "inverted")
-MAX_MISSING = 12  # interim bound (about 1 %) until the splitter handles every layout, see below
 
 
 def _cluster_1d(values: list[float], gap: float) -> list[float]:
@@ -128,7 +127,5 @@ def test_sheet_round_trip(sheet, mirrors_db_path: Path, dpi: int, capsys) -> Non
         )
     assert wrong == []
     assert stray == 0
-    # target: missing == []; measured 10 (150 dpi) and 6 (300 dpi) of 1172, all layouts whose
-    # triangles meet at narrow-angle shared vertices that the splitter cuts wrongly
-    assert len(missing) <= MAX_MISSING, missing[:20]
+    assert missing == [], missing[:20]
     assert len(excused) <= 0.02 * len(cells)
