@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Callable, Iterator, Mapping
@@ -351,17 +352,27 @@ class Detector:
         p = self.params
         h, w = gray.shape
         masks: list[NDArray[Any]] = []
+        # The automatic local threshold searches the image at half resolution (a quarter of the
+        # pixels to threshold and trace) when even the smallest data area keeps sides of
+        # ``_HALF_RES_MIN_SIDE`` px there; quads are mapped back (half-res pixel u covers image
+        # pixels 2u, 2u + 1: centre 2u + 0.5) and their sides are refined on the full image.
+        f = 1
         if kind == "otsu":
             _, m = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
             masks.append(m)
         else:
             block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
+            src: NDArray[Any] = gray
+            if not p.adaptive_block and min(h, w) >= 240 and p.min_quad_side_px >= 2 * _HALF_RES_MIN_SIDE:
+                f = 2
+                src = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
+                block = max(7, (block // 2) | 1)
             masks.append(
-                cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, p.adaptive_c)
+                cv2.adaptiveThreshold(src, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, p.adaptive_c)
             )
         want_normal = "normal" in p.polarities
         want_inverted = "inverted" in p.polarities
-        min_len = 4 * p.min_quad_side_px
+        min_len = 4 * p.min_quad_side_px / f
         min_area = max(p.min_quad_area_px, p.min_quad_side_px**2)
         max_area = 0.95 * h * w
         quads: list[_Quad] = []
@@ -383,10 +394,13 @@ class Detector:
                     approx = cv2.approxPolyDP(c, 0.012 * len(c), True)
                 if len(approx) != 4 or not cv2.isContourConvex(approx):
                     continue
+                q = approx.reshape(4, 2).astype(np.float64)
+                if f != 1:
+                    q = q * f + 0.5 * (f - 1)
+                    approx = q.astype(np.float32).reshape(4, 1, 2)
                 area = abs(float(cv2.contourArea(approx)))
                 if area < min_area or area > max_area:
                     continue
-                q = approx.reshape(4, 2).astype(np.float64)
                 if q[:, 0].min() < 2 or q[:, 1].min() < 2 or q[:, 0].max() > w - 3 or q[:, 1].max() > h - 3:
                     continue
                 sides = np.linalg.norm(q - np.roll(q, -1, axis=0), axis=1)
@@ -541,6 +555,16 @@ class Detector:
             self.__dict__["_up_detector"] = sub
         return sub
 
+    def _realization_arrays(self, lam: str, entry: LookupEntry) -> list[_F64]:
+        """The stored realizations of ``entry`` as float arrays (cached per ID: the lookup is
+        fixed for the detector's life)."""
+        cache: dict[str, list[_F64]] = self.__dict__.setdefault("_real_cache", {})
+        arrays = cache.get(lam)
+        if arrays is None:
+            arrays = [np.asarray(real, dtype=np.float64) for real in entry.realizations]
+            cache[lam] = arrays
+        return arrays
+
     def _identify(self, pts: _F64, lines: list[tuple[_F64, _F64]], corners: _F64, quad: _Quad) -> Detection | Rejected:
         """ID, lookup and verification of one point hypothesis (image pixels).
 
@@ -653,8 +677,7 @@ class Detector:
         # every (realization, minimal labeling): homography, largest point error, and how far
         # the corners mapped back to the tag plane are from a parallelogram (rel. to the side)
         fits: list[tuple[float, float, _F64, _F64, _F64, _F64]] = []
-        for real in entry.realizations:
-            src = np.asarray(real, dtype=np.float64)
+        for src in self._realization_arrays(lam, entry):
             if src.shape != pts.shape:
                 continue
             for lab in minimal:
@@ -668,9 +691,11 @@ class Detector:
                     g = _apply_h(np.asarray(np.linalg.inv(hmat), dtype=np.float64), corners)
                 except np.linalg.LinAlgError:
                     continue
-                sides = float(np.linalg.norm(g - np.roll(g, -1, axis=0), axis=1).mean())
-                par = float(np.linalg.norm(g[0] - g[1] + g[2] - g[3])) / max(sides, 1e-9)
-                if not np.isfinite(par):
+                e = g - g[_NEXT4]
+                sides = float(np.sqrt((e * e).sum(axis=1)).mean())
+                (g0x, g0y), (g1x, g1y), (g2x, g2y), (g3x, g3y) = g.tolist()
+                par = math.hypot(g0x - g1x + g2x - g3x, g0y - g1y + g2y - g3y) / max(sides, 1e-9)
+                if not math.isfinite(par):
                     par = math.inf
                 fits.append((err, par, hmat, dst, src, g))
         if not fits:
@@ -853,57 +878,68 @@ def _triangle_fit(pts: NDArray[Any], strict: float = 0.0) -> list[NDArray[np.flo
     the side from the line fitted to the side's middle, and the contour area must match the
     triangle's.
     """
+    fit = _triangle_fit_parts(pts)
+    if fit is None:
+        return None
+    chains, tri, flat = fit
+    if strict and _off_triangle(flat, tri, strict) > max(3, 0.02 * len(flat)):
+        return None  # a small triangle hanging at a corner (hidden by the corner trims below)
+    return chains
+
+
+def _triangle_fit_parts(pts: NDArray[Any]) -> tuple[list[NDArray[np.float64]], _F64, _F64] | None:
+    """:func:`_triangle_fit` without the strict test: side chains, corners, contour (float)."""
     n = len(pts)
     if n < 8:
         return None
-    c = pts.reshape(-1, 1, 2).astype(np.int32)
-    perim = float(cv2.arcLength(c, True))
-    flat = pts.reshape(-1, 2)
+    flat_i = np.ascontiguousarray(pts.reshape(-1, 2), dtype=np.int32)
+    c = flat_i.reshape(-1, 1, 2)
     hull = cv2.convexHull(c, returnPoints=False).ravel()
     if len(hull) < 3:
         return None
-    hp = flat[hull].astype(np.float64)
+    flat = flat_i.astype(np.float64)
+    hp = flat[hull]
     dd = ((hp[:, None, :] - hp[None, :, :]) ** 2).sum(axis=2)
-    ia, ib = np.unravel_index(int(np.argmax(dd)), dd.shape)
-    pa, pb = hp[ia], hp[ib]
-    ab = pb - pa
-    ic = int(np.argmax(np.abs(ab[0] * (hp[:, 1] - pa[1]) - ab[1] * (hp[:, 0] - pa[0]))))
+    ia, ib = divmod(int(np.argmax(dd)), len(hp))
+    hpl: list[list[float]] = hp.tolist()
+    hrange = range(len(hpl))
+
+    def far_from(p0: list[float], p1: list[float]) -> list[float]:
+        """Twice the area of the triangle of each hull point with ``p0`` and ``p1``."""
+        ex, ey = p1[0] - p0[0], p1[1] - p0[1]
+        return [abs(ex * (y - p0[1]) - ey * (x - p0[0])) for x, y in hpl]
+
+    vals = far_from(hpl[ia], hpl[ib])
+    ic = max(hrange, key=vals.__getitem__)  # the first largest, as np.argmax
     sel = [int(ia), int(ib), ic]
     # grow to the largest-area hull triangle (a blunt short side can fool the farthest pair)
     for _ in range(3):
         changed = False
         for r in range(3):
-            p0, p1 = hp[sel[(r + 1) % 3]], hp[sel[(r + 2) % 3]]
-            e = p1 - p0
-            best = int(np.argmax(np.abs(e[0] * (hp[:, 1] - p0[1]) - e[1] * (hp[:, 0] - p0[0]))))
-            if best != sel[r]:
-                a_new = abs(e[0] * (hp[best, 1] - p0[1]) - e[1] * (hp[best, 0] - p0[0]))
-                a_old = abs(e[0] * (hp[sel[r], 1] - p0[1]) - e[1] * (hp[sel[r], 0] - p0[0]))
-                if a_new > a_old + 1e-9:
-                    sel[r] = best
-                    changed = True
+            vals = far_from(hpl[sel[(r + 1) % 3]], hpl[sel[(r + 2) % 3]])
+            best = max(hrange, key=vals.__getitem__)
+            if best != sel[r] and vals[best] > vals[sel[r]] + 1e-9:
+                sel[r] = best
+                changed = True
         if not changed:
             break
-    idx = [int(hull[s]) for s in sel]
-    if len(set(idx)) < 3:
+    idx = sorted({int(hull[s]) for s in sel})
+    if len(idx) < 3:
         return None
-    idx.sort()
-    tri = flat[idx].astype(np.float64)
-    t_area = 0.5 * abs(
-        (tri[1, 0] - tri[0, 0]) * (tri[2, 1] - tri[0, 1]) - (tri[1, 1] - tri[0, 1]) * (tri[2, 0] - tri[0, 0])
-    )
+    tri = flat[idx]
+    (t0x, t0y), (t1x, t1y), (t2x, t2y) = tri.tolist()
+    t_area = 0.5 * abs((t1x - t0x) * (t2y - t0y) - (t1y - t0y) * (t2x - t0x))
     c_area = abs(float(cv2.contourArea(c)))
+    perim = float(cv2.arcLength(c, True))
     if t_area <= 0 or abs(c_area - t_area) > 0.2 * t_area + 0.25 * perim:
         return None
-    if strict and _off_triangle(flat.astype(np.float64), tri, strict) > max(3, 0.02 * n):
-        return None  # a small triangle hanging at a corner (hidden by the corner trims below)
     chains: list[NDArray[np.float64]] = []
     far = 0
-    for a, b in ((idx[0], idx[1]), (idx[1], idx[2]), (idx[2], idx[0] + n)):
-        seg = np.take(flat, np.arange(a, b + 1), axis=0, mode="wrap").astype(np.float64)
+    i0, i1, i2 = idx
+    for seg in (flat[i0 : i1 + 1], flat[i1 : i2 + 1], np.concatenate([flat[i2:], flat[: i0 + 1]])):
         m = len(seg)
-        d = seg[-1] - seg[0]
-        ln = float(np.hypot(d[0], d[1]))
+        (sx, sy), (qx, qy) = seg[0].tolist(), seg[-1].tolist()
+        ln = math.hypot(qx - sx, qy - sy)
         if ln < 1:
             return None
         if m < 6:
@@ -914,18 +950,17 @@ def _triangle_fit(pts: NDArray[Any], strict: float = 0.0) -> list[NDArray[np.flo
         core = seg[trim : m - trim]
         # distance of the chain (without its ends) to the line fitted to its core
         t10 = max(1, int(0.1 * m))
-        mid = seg[t10 : m - t10]
-        ctr = core.mean(axis=0)
-        dc = core - ctr
-        sxx, sxy, syy = float(dc[:, 0] @ dc[:, 0]), float(dc[:, 0] @ dc[:, 1]), float(dc[:, 1] @ dc[:, 1])
+        cx, cy = (core.sum(axis=0) / len(core)).tolist()
+        dc = core - (cx, cy)
+        (sxx, sxy), (_, syy) = (dc.T @ dc).tolist()
         theta = 0.5 * math.atan2(2 * sxy, sxx - syy)
-        nrm = np.array([-math.sin(theta), math.cos(theta)])
-        dist = np.abs((mid - ctr) @ nrm)
-        far += int((dist > 1.0 + 0.015 * ln).sum())
+        nx, ny = -math.sin(theta), math.cos(theta)
+        dist = np.abs(seg[t10 : m - t10] @ (nx, ny) - (nx * cx + ny * cy))
+        far += int(np.count_nonzero(dist > 1.0 + 0.015 * ln))
         chains.append(core)
     if far > max(2, 0.05 * n):
         return None
-    return chains
+    return chains, tri, flat
 
 
 def _off_triangle(pts: _F64, tri: _F64, tol_px: float) -> int:
@@ -960,6 +995,10 @@ def _bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
 
 
 _MAX_DECOMPOSITIONS = 10
+_NEXT4 = np.array([1, 2, 3, 0])
+#: The half-resolution candidate search is used only while the smallest data area keeps at
+#: least this side (px) there.
+_HALF_RES_MIN_SIDE = 6.0
 #: Rejections after triangles were found: the reader tries the data area upsampled 2× then.
 _RETRY_UPSAMPLED = frozenset(
     {"non_triangle", "point_count", "general_position", "low_margin", "unknown_id", "verification", "quad_inconsistent"}
@@ -1008,10 +1047,16 @@ def _component_decompositions(
             keys.add(key)
             out.append(chains)
 
-    first = next(_split_triangles(pts, 0, False), None)
+    whole = _triangle_fit_parts(pts)
+    if whole is not None:
+        first: list[NDArray[np.float64]] | None = whole[0]
+    else:
+        first = next(_split_triangles(pts, 0, False, fitted=True), None)
     if first is not None:
         add(first)
-        if not alternatives or (len(first) == 3 and _triangle_fit(pts, strict=1.5) is not None):
+        if not alternatives or (
+            whole is not None and _off_triangle(whole[2], whole[1], 1.5) <= max(3, 0.02 * len(whole[2]))
+        ):
             return out  # one triangle: nothing to reconsider
     opened = opening()
     if opened is not None:
@@ -1032,7 +1077,12 @@ def _component_decompositions(
 
 
 def _split_triangles(
-    pts: NDArray[Any], depth: int, notch: bool, strict: float = 0.0, budget: list[int] | None = None
+    pts: NDArray[Any],
+    depth: int,
+    notch: bool,
+    strict: float = 0.0,
+    budget: list[int] | None = None,
+    fitted: bool = False,
 ) -> Iterator[list[NDArray[np.float64]]]:
     """Triangles of a contour that may be several triangles joined at shared vertices.
 
@@ -1041,13 +1091,14 @@ def _split_triangles(
     the contour is cut between two such concave points, shortest cut first (or from a concave
     point to a contour point within 3 px, a pinch; with ``notch`` also along a slit, see
     :func:`_notch_cuts`), and both halves are fitted again, recursively. Yields the
-    decompositions found, in the order of the cuts.
+    decompositions found, in the order of the cuts. ``fitted``: the caller already knows
+    that ``pts`` is not one (loosely fitted) triangle.
     """
     if budget is not None:
         if budget[0] <= 0:
             return
         budget[0] -= 1
-    tri = _triangle_fit(pts, strict)
+    tri = None if fitted and not strict else _triangle_fit(pts, strict)
     if tri is not None:
         yield tri
         return
@@ -1334,17 +1385,22 @@ def _polygon_vertices(normal: _F64, offset: _F64, m: int) -> _F64:
     return v.reshape(-1, m, 2) if m != 4 else v.reshape(-1, 2)
 
 
+@functools.lru_cache(maxsize=256)
 def _prev_index(s: int, m: int) -> NDArray[np.intp]:
-    """Index of side j−1 of the same polygon for every side of ``s / m`` polygons of ``m`` sides."""
+    """Index of side j−1 of the same polygon for every side of ``s / m`` polygons of ``m`` sides
+    (cached: read-only)."""
     i = np.arange(s)
     out: NDArray[np.intp] = i - i % m + (i - 1) % m
+    out.flags.writeable = False
     return out
 
 
+@functools.lru_cache(maxsize=256)
 def _next_index(s: int, m: int) -> NDArray[np.intp]:
     """Index of side j+1 of the same polygon (see :func:`_prev_index`)."""
     i = np.arange(s)
     out: NDArray[np.intp] = i - i % m + (i + 1) % m
+    out.flags.writeable = False
     return out
 
 
@@ -1407,14 +1463,17 @@ def _refine_lines(
     above = vals > 0
     change = above[:, :, 1:] != above[:, :, :-1]  # crossing between o and o+1
     score = np.where(change, _REFINE_MID, np.inf)
-    j = np.argmin(score, axis=2)[..., None]
+    j = np.argmin(score, axis=2)
     valid = change.any(axis=2) & wide
-    v0 = np.take_along_axis(vals, j, axis=2)[..., 0]
-    v1 = np.take_along_axis(vals, j + 1, axis=2)[..., 0]
+    flat_vals = vals.reshape(-1, n_o)
+    rows = np.arange(len(flat_vals))
+    jf = j.ravel()
+    v0 = flat_vals[rows, jf].reshape(j.shape)
+    v1 = flat_vals[rows, jf + 1].reshape(j.shape)
     den = v0 - v1
     step = den != 0
     frac = np.where(step, v0 / np.where(step, den, 1.0), 0.5)
-    o = offs[j[..., 0]] + frac * (offs[1] - offs[0])
+    o = offs[j] + frac * (offs[1] - offs[0])
     pts = base + o[:, :, None] * normal[:, None, :]
     w = valid.astype(np.float64)
     cnt = w.sum(axis=1)
@@ -1439,15 +1498,25 @@ _REFINE_OFFS = np.linspace(-3.0, 3.0, 13)
 _REFINE_MID = np.abs(0.5 * (_REFINE_OFFS[1:] + _REFINE_OFFS[:-1]))
 
 
-def _ls_point(normal: _F64, offset: _F64) -> tuple[_F64, float]:
-    """Least-squares intersection of lines ``n·x = c`` and the largest line distance to it."""
-    (a00, a01), (a10, a11) = (normal.T @ normal).tolist()
-    b0, b1 = (normal.T @ offset).tolist()
-    det = a00 * a11 - a01 * a10
+def _ls_point_lists(nl: list[list[float]], ol: list[float], ids: list[int]) -> tuple[tuple[float, float] | None, float]:
+    """Least-squares intersection of the lines ``ids`` (normals ``nl``, offsets ``ol``: n·x = c)
+    and the largest line distance to it; plain Python (the few lines of one point, no array
+    overhead). None, inf for (nearly) parallel lines."""
+    a00 = a01 = a11 = b0 = b1 = 0.0
+    for i in ids:
+        nx, ny = nl[i]
+        c = ol[i]
+        a00 += nx * nx
+        a01 += nx * ny
+        a11 += ny * ny
+        b0 += nx * c
+        b1 += ny * c
+    det = a00 * a11 - a01 * a01
     if abs(det) < 1e-9:
-        return np.full(2, np.nan), math.inf
-    x: _F64 = np.array([(b0 * a11 - a01 * b1) / det, (a00 * b1 - a10 * b0) / det])
-    return x, float(np.abs(normal @ x - offset).max())
+        return None, math.inf
+    x = (b0 * a11 - a01 * b1) / det
+    y = (a00 * b1 - a01 * b0) / det
+    return (x, y), max(abs(nl[i][0] * x + nl[i][1] * y - ol[i]) for i in ids)
 
 
 def _cluster_hypotheses(
@@ -1469,6 +1538,9 @@ def _cluster_hypotheses(
     corner = np.arange(n) % 3
     # the two side lines through each vertex estimate
     line_ids = np.stack([3 * tri + (corner + 2) % 3, 3 * tri + corner], axis=1)
+    nl: list[list[float]] = normal.tolist()
+    ol: list[float] = offset.tolist()
+    lid: list[list[int]] = line_ids.tolist()
     d = np.linalg.norm(v[:, None, :] - v[None, :, :], axis=2)
     ii, jj = np.nonzero(np.triu(d < cap, 1) & (tri[:, None] != tri[None, :]))
     order = np.argsort(d[ii, jj], kind="stable")
@@ -1476,8 +1548,7 @@ def _cluster_hypotheses(
     doubtful: list[tuple[int, int]] = []
     for o in order:
         i, j = int(ii[o]), int(jj[o])
-        ids = line_ids[[i, j]].ravel()
-        _, res = _ls_point(normal[ids], offset[ids])
+        _, res = _ls_point_lists(nl, ol, lid[i] + lid[j])
         if res > tol:
             continue
         (sure_pairs if d[i, j] <= sure else doubtful).append((i, j))
@@ -1487,7 +1558,7 @@ def _cluster_hypotheses(
     seen: set[tuple[int, ...]] = set()
     for subset in subsets:
         pairs = sure_pairs + [pr for pr, use in zip(doubtful, subset, strict=True) if use]
-        groups = _merge(pairs, n, tri, line_ids, normal, offset, tol)
+        groups = _merge(pairs, n, tri, lid, nl, ol, tol)
         key = tuple(sorted(min(g) for g in groups))
         if key in seen:
             continue
@@ -1495,14 +1566,14 @@ def _cluster_hypotheses(
         pts = []
         lines = []
         for members in groups:
-            ids = line_ids[members].ravel()
-            x, _ = _ls_point(normal[ids], offset[ids])
-            if not np.isfinite(x).all():
+            id_list = [u for m in members for u in lid[m]]
+            xy, _ = _ls_point_lists(nl, ol, id_list)
+            if xy is None or not (math.isfinite(xy[0]) and math.isfinite(xy[1])):
                 break
-            pts.append(x)
-            lines.append(ids)
+            pts.append(xy)
+            lines.append(np.array(id_list, dtype=np.int64))
         else:
-            out.append((np.stack(pts), lines))
+            out.append((np.array(pts, dtype=np.float64), lines))
     return out
 
 
@@ -1510,9 +1581,9 @@ def _merge(
     pairs: list[tuple[int, int]],
     n: int,
     tri: NDArray[np.int64],
-    line_ids: NDArray[np.int64],
-    normal: _F64,
-    offset: _F64,
+    lid: list[list[int]],
+    nl: list[list[float]],
+    ol: list[float],
     tol: float,
 ) -> list[list[int]]:
     """Greedy union of vertex estimates along ``pairs`` (never two corners of one triangle)."""
@@ -1523,11 +1594,10 @@ def _merge(
         if a == b:
             continue
         ga, gb = groups[a], groups[b]
-        if set(tri[ga].tolist()) & set(tri[gb].tolist()):
+        if {m // 3 for m in ga} & {m // 3 for m in gb}:  # vertex m is a corner of triangle m // 3
             continue
         if len(ga) + len(gb) > 2:
-            ids = line_ids[ga + gb].ravel()
-            _, res = _ls_point(normal[ids], offset[ids])
+            _, res = _ls_point_lists(nl, ol, [u for m in ga + gb for u in lid[m]])
             if res > tol:
                 continue
         groups[a] = ga + gb
@@ -1560,36 +1630,49 @@ def _homography_lines(src: _F64, lines: list[tuple[_F64, _F64]]) -> _F64 | None:
     of a sharp tip, where the side lines meet at a small angle. Falls back to None when the
     system is degenerate.
     """
-    nrm = np.concatenate([n for n, _ in lines])
-    off = np.concatenate([c for _, c in lines])
-    rep = np.concatenate([np.full(len(c), i) for i, (_, c) in enumerate(lines)])
+    nrm, off, rep = _stack_lines(lines)
     if len(off) < 8:
         return None
     # normalisation: model points to zero mean / unit spread; image lines to the same for
     # the detected points (the least-squares points of the lines)
     mc = src.mean(axis=0)
-    ms = math.sqrt(2.0) / max(float(np.linalg.norm(src - mc, axis=1).mean()), 1e-12)
-    tm = np.array([[ms, 0, -ms * mc[0]], [0, ms, -ms * mc[1]], [0, 0, 1.0]])
+    dm = src - mc
+    ms = math.sqrt(2.0) / max(float(np.sqrt((dm * dm).sum(axis=1)).mean()), 1e-12)
     foot = nrm * off[:, None]  # a point of each line
     ic = foot.mean(axis=0)
-    spread = float(np.linalg.norm(foot - ic, axis=1).mean())
+    df = foot - ic
+    spread = float(np.sqrt((df * df).sum(axis=1)).mean())
     isc = math.sqrt(2.0) / max(spread, 1e-12)
-    ti = np.array([[isc, 0, -isc * ic[0]], [0, isc, -isc * ic[1]], [0, 0, 1.0]])
-    # a line (n, c) is the homogeneous vector (n_x, n_y, -c); lines map by ti^-T
-    lh = np.c_[nrm, -off] @ np.linalg.inv(ti)
+    # a line (n, c) is the homogeneous vector (n_x, n_y, -c); lines map by ti^-T, where
+    # ti^-1 = [[1/isc, 0, ic_x], [0, 1/isc, ic_y], [0, 0, 1]]
+    lh = np.empty((len(off), 3))
+    lh[:, :2] = nrm / isc
+    lh[:, 2] = nrm @ ic - off
     lh /= np.maximum(np.hypot(lh[:, 0], lh[:, 1]), 1e-12)[:, None]
-    xs = np.c_[src, np.ones(len(src))] @ tm.T
+    xs = np.empty((len(src), 3))
+    xs[:, :2] = dm * ms
+    xs[:, 2] = 1.0
     a = (lh[:, :, None] * xs[rep][:, None, :]).reshape(len(off), 9)
     try:
-        _, _, vt = np.linalg.svd(a)
+        _, _, vt = np.linalg.svd(a, full_matrices=False)
     except np.linalg.LinAlgError:
         return None
     hn = vt[-1].reshape(3, 3)
-    hmat = np.linalg.inv(ti) @ hn @ tm
+    ti_inv = np.array([[1.0 / isc, 0, ic[0]], [0, 1.0 / isc, ic[1]], [0, 0, 1.0]])
+    tm = np.array([[ms, 0, -ms * mc[0]], [0, ms, -ms * mc[1]], [0, 0, 1.0]])
+    hmat = ti_inv @ hn @ tm
     if not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
         return None
     out: _F64 = hmat / hmat[2, 2]
     return out
+
+
+def _stack_lines(lines: list[tuple[_F64, _F64]]) -> tuple[_F64, _F64, NDArray[np.intp]]:
+    """All side lines of a point list in one array, and the index of each line's point."""
+    nrm = np.concatenate([n for n, _ in lines])
+    off = np.concatenate([c for _, c in lines])
+    rep = np.repeat(np.arange(len(lines)), [len(c) for _, c in lines])
+    return nrm, off, rep
 
 
 def _line_error(hmat: _F64, src: _F64, lines: list[tuple[_F64, _F64]]) -> float:
@@ -1597,11 +1680,16 @@ def _line_error(hmat: _F64, src: _F64, lines: list[tuple[_F64, _F64]]) -> float:
     mapped = _apply_h(hmat, src)
     if not np.isfinite(mapped).all():
         return math.inf
-    return max(float(np.abs(n @ m - c).max()) for m, (n, c) in zip(mapped, lines, strict=True))
+    nrm, off, rep = _stack_lines(lines)
+    return float(np.abs((nrm * mapped[rep]).sum(axis=1) - off).max())
 
 
 def _apply_h(hmat: _F64, pts: _F64) -> _F64:
-    ph = np.c_[pts, np.ones(len(pts))] @ hmat.T
+    ph = pts @ hmat[:, :2].T + hmat[:, 2]
+    w = ph[:, 2:3]
+    if w.all():
+        out: _F64 = ph[:, :2] / w
+        return out
     with np.errstate(divide="ignore", invalid="ignore"):
-        out: _F64 = ph[:, :2] / ph[:, 2:3]
+        out = ph[:, :2] / w
     return out

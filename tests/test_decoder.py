@@ -306,3 +306,31 @@ def test_strict_fit_splits_small_triangle_hanging_at_a_corner():
     assert len(dec._reflex_corners(pts)) >= 1
     splits = list(dec._split_triangles(pts, 0, False, 1.5, [80]))
     assert any(len(chains) == 6 for chains in splits)  # two triangles
+
+
+@needs_ref
+def test_half_resolution_candidate_search_matches_full_resolution(reference):
+    """The automatic local threshold searches a 640×480 frame at half resolution; small, tilted
+    tags (data area ~50–70 px) decode as with the full-resolution search (explicit window)."""
+    lookup, records = reference
+    cache: dict[bytes, ts.Drawable] = {}
+    k_mat = ts.camera_matrix()
+    rng = np.random.default_rng(11)
+    half, full = Detector(lookup), Detector(lookup, adaptive_block=31)
+    recs = [r for r in records if r["k"] in (5, 6) and ts.min_width_px(ts.drawable(r, cache).mp_unit) <= 60]
+    decoded = 0
+    for n in range(12):
+        rec = recs[n % len(recs)]
+        dr = ts.drawable(rec, cache)
+        width = float(rng.uniform(ts.min_width_px(dr.mp_unit), 70))
+        r_mat, t = ts.random_pose(rng, k_mat, 0.1, width, float(rng.uniform(0, 35)), (320, 240))
+        hom = ts.pose_homography(k_mat, r_mat, t, 0.1)
+        pol = ("normal", "inverted")[n % 2]
+        spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, hom, pol, placement=dr.placement)
+        image = ts.render_scene((480, 640), [spec], rng, blur=0.5, noise=2).image
+        a, b = half.detect(image), full.detect(image)
+        assert [d.lambda_ for d in a] == [d.lambda_ for d in b]
+        for da, db in zip(a, b, strict=True):
+            assert np.abs(da.points - db.points).max() < 0.3
+        decoded += len(a) == 1 and a[0].lambda_ == rec["lambda"]
+    assert decoded >= 11
