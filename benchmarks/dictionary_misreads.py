@@ -89,7 +89,7 @@ def main() -> None:
     ap.add_argument(
         "--levels",
         nargs="+",
-        default=["1.0:5:70:70", "1.3:8:60:60", "1.6:10:60:55"],
+        default=["0.8:4:75:80", "1.0:5:70:70", "1.3:8:60:60", "1.6:10:60:55"],
         help="blur:noise:jpeg:width_px per level",
     )
     ap.add_argument("--k", type=int, nargs="+", default=[6, 7, 8], help="point counts of the dictionary")
@@ -98,9 +98,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         db = open_database(build_db(Path(tmp), tuple(args.k)))
         try:
-            full = Detector(dictionary_lookup(db, None), verify=False, min_margin_px=0.0)
+            full = Detector(dictionary_lookup(db, None), verify=False)
             d2_lookup = dictionary_lookup(db, "d2")
-            d2 = Detector(d2_lookup, verify=False, min_margin_px=0.0)
+            d2 = Detector(d2_lookup, verify=False)
             members = list(d2_lookup)
         finally:
             db.close()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import itertools
 import os
 import re
 from collections.abc import Callable, Iterator, Sequence
@@ -30,6 +31,7 @@ __all__ = [
     "optimize_continuous",
     "realize_all",
     "set_rng",
+    "tilt_failures",
 ]
 
 #: Largest coordinate of the 8-bit grid; points live in [0, GRID_MAX]².
@@ -43,6 +45,12 @@ _KEY_SIZE = 3
 _KEY_EPS = 1e-9
 #: Sets per work unit given to one process (fixed, so results do not depend on ``jobs``).
 _CHUNK = 24
+#: MP values (grid units) that the tilt-robust choice never crosses downwards: the
+#: thresholds 0.5, 1.0, …, 9.0 of the summary table, then every integer.
+_MP_STEPS = np.concatenate([np.arange(0.5, 9.01, 0.5), np.arange(10.0, 256.0)])
+#: Camera of the projection experiments (paper's Table 4): focal length and distance (px, a.u.).
+_FOCAL = 1000.0
+_DISTANCE = 1000.0
 
 
 @dataclass(frozen=True)
@@ -54,7 +62,14 @@ class RealizeEffort:
       (standard deviations cycling through ``hop_sigmas``, grid units);
     - ``roundings``: rounding variants (sub-pixel shifts and slight shrinks) tried per set;
     - ``searched_roundings``: best rounding variants refined by the integer local search;
-    - ``maxiter``: SLSQP iteration limit; ``search_iters``: integer-search iteration limit.
+    - ``maxiter``: SLSQP iteration limit; ``search_iters``: integer-search iteration limit;
+    - ``hard_below``: sets whose best continuous MP is below this count as *hard* and get
+      ``hard_starts`` further SLSQP runs from uniformly random points (which land in other
+      basins than the projective images of one realization) and ``exact_variants``
+      sub-pixel shifts / slight shrinks of the optimum, each rounded in all ``4^k`` ways
+      (floor or ceiling per coordinate), of which the ``exact_keep`` best go to the search;
+    - ``tilt_tol``: of the searched integer sets, those with MP ≥ (1 − ``tilt_tol``) · best
+      (never crossing a value of ``_MP_STEPS``) compete on :func:`tilt_failures`.
     """
 
     starts: int = 3
@@ -64,6 +79,11 @@ class RealizeEffort:
     searched_roundings: int = 3
     maxiter: int = 200
     search_iters: int = 200
+    hard_below: float = 0.0
+    hard_starts: int = 0
+    exact_variants: int = 0
+    exact_keep: int = 2
+    tilt_tol: float = 0.03
 
 
 def default_effort(k: int) -> RealizeEffort:
@@ -73,8 +93,10 @@ def default_effort(k: int) -> RealizeEffort:
     budget is a few SLSQP runs each (multi-starts rarely change the optimum there).
     """
     if k <= 7:
-        return RealizeEffort(starts=8, hops=16, roundings=64, searched_roundings=6)
-    return RealizeEffort(starts=3, hops=0)
+        return RealizeEffort(
+            starts=8, hops=16, roundings=64, searched_roundings=6, hard_below=np.inf, exact_variants=4
+        )
+    return RealizeEffort(starts=3, hops=0, hard_below=2.3, exact_variants=4)
 
 
 @dataclass(frozen=True)
@@ -322,7 +344,8 @@ def optimize_continuous(
 
     Runs SLSQP (maximize t s.t. every point-to-line distance, with the sign of the input,
     is ≥ t) from the input scaled into the box, from ``starts − 1`` random projective
-    images and from ``hops`` random perturbations of the best so far. Returns the best
+    images and from ``hops`` random perturbations of the best so far (and, for a hard set,
+    see :class:`RealizeEffort`, from ``hard_starts`` uniformly random points). Returns the best
     points (same labelling and orientations as the input) and their MP (grid units).
     """
     pts = np.asarray(points, dtype=np.float64)
@@ -343,6 +366,11 @@ def optimize_continuous(
             cand, value = _slsqp(start, signs, eff.maxiter)
             if value > best:
                 best_pts, best = cand, value
+        if best < eff.hard_below:
+            for _ in range(eff.hard_starts):
+                cand, value = _slsqp(rng.uniform(0.0, float(GRID_MAX), pts.shape), signs, eff.maxiter)
+                if value > best:
+                    best_pts, best = cand, value
     return best_pts, best
 
 
@@ -442,6 +470,82 @@ def _best_roundings(
     return out
 
 
+@lru_cache(maxsize=16)
+def _corner_offsets(k: int) -> NDArray[np.float64]:
+    """All ``4^k`` ways ``(4^k, k, 2)`` to add 0 or 1 to each coordinate of ``k`` points."""
+    bits = (np.arange(1 << (2 * k))[:, None] >> np.arange(2 * k)) & 1
+    out: NDArray[np.float64] = bits.reshape(-1, k, 2).astype(np.float64)
+    return out
+
+
+def _exact_roundings(
+    cont: NDArray[np.float64], signs: NDArray[np.float64], effort: RealizeEffort, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Best integer sets among all floor/ceiling roundings of ``exact_variants`` sub-pixel
+    shifts and shrinks (by up to 1 %) of ``cont``: ``exact_keep`` per variant."""
+    k = cont.shape[0]
+    offsets = _corner_offsets(k)
+    centre = GRID_MAX / 2.0
+    out: list[NDArray[np.float64]] = []
+    for v in range(effort.exact_variants):
+        if v == 0:
+            moved = cont
+        else:
+            moved = centre + (1.0 - rng.uniform(0.0, 0.01)) * (cont - centre) + rng.uniform(-0.5, 0.5, 2)
+        cands = np.clip(np.floor(moved)[None] + offsets, 0.0, float(GRID_MAX))
+        terms = _signed_mp_terms(cands, np.broadcast_to(signs, (cands.shape[0], signs.size)))
+        low = terms.min(axis=1)
+        m = min(effort.exact_keep, low.size)
+        top = np.argpartition(-low, m - 1)[:m]
+        top = top[np.lexsort((top, -low[top]))]
+        out.append(cands[top])
+    return np.concatenate(out) if out else np.zeros((0, k, 2))
+
+
+@lru_cache(maxsize=4)
+def _tilt_views() -> NDArray[np.float64]:
+    """First two columns ``(V, 3, 2)`` of the camera rotations ``Ry(θ2) · Rz(θ1)`` of the
+    strongest tilts of the rotation experiment: θ1 = 0°, 10°, …, 350°, θ2 = 84°, …, 89°."""
+    t1, t2 = np.meshgrid(np.arange(0.0, 360.0, 10.0), np.arange(84.0, 90.0), indexing="ij")
+    a, b = np.deg2rad(t1.ravel()), np.deg2rad(t2.ravel())
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    col0 = np.stack([cb * ca, sa, -sb * ca], axis=1)
+    col1 = np.stack([-cb * sa, ca, sb * sa], axis=1)
+    out: NDArray[np.float64] = np.stack([col0, col1], axis=2)
+    return out
+
+
+def tilt_failures(points: ArrayLike) -> NDArray[np.int64]:
+    """For each ``(B, k, 2)`` set (grid units), the number of strongly tilted camera views
+    (distance 1000, f = 1000 px, θ2 = 84° … 89°, 36 values of θ1) whose rounded pixels
+    change a triple orientation: a proxy of the projection experiment's failures."""
+    pts = np.asarray(points, dtype=np.float64)
+    views = _tilt_views()
+    centred = pts - pts.mean(axis=1, keepdims=True)
+    cam = np.einsum("vij,bkj->bvki", views, centred)
+    depth = cam[..., 2] + _DISTANCE
+    u = np.floor(_FOCAL * cam[..., 0] / depth + 0.5)
+    v = np.floor(_FOCAL * cam[..., 1] / depth + 0.5)
+    a, b, c = _triples(pts.shape[1])
+    d = (u[..., b] - u[..., a]) * (v[..., c] - v[..., a]) - (v[..., b] - v[..., a]) * (u[..., c] - u[..., a])
+    signs = _triple_signs(pts)[:, None, :]
+    out: NDArray[np.int64] = (np.sign(d) != signs).any(axis=-1).sum(axis=-1).astype(np.int64)
+    return out
+
+
+def _tilt_choice(points: NDArray[np.int64], mps: NDArray[np.float64], tol: float) -> int:
+    """Index of the chosen one of several integer realizations of one set: the fewest
+    :func:`tilt_failures` among those with MP ≥ max((1 − tol) · best, the largest value
+    of ``_MP_STEPS`` ≤ best), then the larger MP, then the first."""
+    best = float(mps.max())
+    steps = _MP_STEPS[best + _KEY_EPS >= _MP_STEPS]
+    floor = max(best * (1.0 - tol), float(steps.max()) if steps.size else 0.0)
+    ok = np.flatnonzero(mps >= floor - _KEY_EPS)
+    fails = tilt_failures(points[ok])
+    order = np.lexsort((ok, -mps[ok], fails))
+    return int(ok[order[0]])
+
+
 def maximize_mp(
     points: ArrayLike, seed: int = 0, *, text: str | None = None, effort: RealizeEffort | None = None
 ) -> NDArray[np.int64]:
@@ -471,16 +575,17 @@ def _realize_chunk(
         rng = set_rng(seed, text)
         cont, cont_mp = optimize_continuous(pts, rng, eff)
         signs = _triple_signs(pts)
-        starts.append(_best_roundings(cont, signs, eff, rng))
-        signs_list.append(np.broadcast_to(signs, (eff.searched_roundings, signs.size)))
+        cands = _best_roundings(cont, signs, eff, rng)
+        if cont_mp < eff.hard_below and eff.exact_variants > 0:
+            cands = np.concatenate([cands, _exact_roundings(cont, signs, eff, rng)])
+        starts.append(cands)
+        signs_list.append(np.broadcast_to(signs, (cands.shape[0], signs.size)))
         conts.append(cont_mp)
     found, mps = integer_local_search(np.concatenate(starts), np.concatenate(signs_list), eff.search_iters)
-    found = found.reshape(len(texts), eff.searched_roundings, k, 2)
-    mps = mps.reshape(len(texts), eff.searched_roundings)
-    best = np.argmax(mps, axis=1)
-    rows = np.arange(len(texts))
-    chosen = found[rows, best]
-    chosen_mp = mps[rows, best]
+    bounds = np.cumsum([0] + [s.shape[0] for s in starts]).tolist()
+    picks = [lo + _tilt_choice(found[lo:hi], mps[lo:hi], eff.tilt_tol) for lo, hi in itertools.pairwise(bounds)]
+    chosen = found[picks]
+    chosen_mp = mps[picks]
     got = canonical_batch(chosen).texts()
     out: list[RealizedSet] = []
     for i, text in enumerate(texts):

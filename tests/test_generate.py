@@ -176,12 +176,17 @@ def test_bundled_mp(bundled: dict) -> None:
     for k, row in PAPER_TABLE7.items():
         ours = [int((mp[k] >= v).sum()) for v in MP_THRESHOLDS]
         assert all(o >= p for o, p in zip(ours, row, strict=True)), (k, ours)
+    # Issue targets reached by the bundled data.
     assert (mp[8] >= 3.0).sum() >= 3100
     assert (mp[8] >= 6.0).sum() >= 1500
-    # Real-valued optima (SLSQP from dozens of random starts) of the hardest sets are below
-    # the round targets: ≈ 1.12 for the worst 8-set, ≈ 3.46 for the worst 7-set, and only
-    # about 122 of the 7-sets reach 6.0 even without rounding.
-    assert mp[8].min() >= 1.0
-    assert (mp[8] >= 2.0).sum() >= 3280
-    assert mp[7].min() >= 3.3
-    assert (mp[7] >= 6.0).sum() >= 115
+    # Targets not reachable: the real-valued optima (SLSQP from the seed, projective images,
+    # uniformly random starts and starts inserted into optimized 7-point sets all agree) of
+    # the hardest sets are below them: ≈ 1.12 for the worst 8-set, about 19 8-sets below 2.0
+    # (rounding to the grid costs a few more that are just above); ≈ 3.46 for the worst
+    # 7-set, ≈ 4.02 for the second; only 122 of the 7-sets reach 6.0 even without rounding.
+    # The thresholds below are what the bundled data reach.
+    assert mp[8].min() >= 1.05  # target: every 8-set ≥ 2.0
+    assert (mp[8] >= 2.0).sum() >= 3289  # of 3315
+    assert mp[7].min() >= 3.39  # target: every 7-set ≥ 4.0
+    assert (mp[7] >= 4.0).sum() >= 133  # of 135
+    assert (mp[7] >= 6.0).sum() >= 119  # target: ≥ 125

@@ -127,3 +127,28 @@ def test_set_rng_depends_on_seed_and_id() -> None:
     d = set_rng(0, "5:0321000123100102100121300").random(3)
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c) and not np.array_equal(a, d)
+
+
+def test_tilt_failures_track_small_mp() -> None:
+    from ottag_db.realize import tilt_failures
+
+    good = np.array([[0, 0], [255, 0], [128, 255]], float)[None]
+    assert tilt_failures(good).shape == (1,)
+    # 216 strongly tilted views; a fat triangle survives more of them than a thin one.
+    thin = np.array([[0, 0], [255, 0], [128, 3]], float)[None]
+    assert 0 <= tilt_failures(good)[0] < tilt_failures(thin)[0] <= 216
+
+
+def test_exact_roundings_and_hard_effort() -> None:
+    from ottag_db.realize import _exact_roundings
+
+    signs = _triple_signs(FIG4[None])[0]
+    eff = RealizeEffort(starts=2, hops=0, roundings=8, searched_roundings=2, hard_below=np.inf, exact_variants=2)
+    cont, _ = optimize_continuous(FIG4, np.random.default_rng(0), eff)
+    cands = _exact_roundings(cont, signs, eff, np.random.default_rng(1))
+    assert cands.shape == (2 * eff.exact_keep, 7, 2)
+    assert np.array_equal(cands, np.rint(cands)) and cands.min() >= 0 and cands.max() <= GRID_MAX
+    # The best floor/ceiling rounding keeps the order type and is at least as good as plain rounding.
+    assert grid_mp(cands[:1], signs[None])[0] >= grid_mp(np.rint(cont)[None], signs[None])[0] - 1e-12
+    out = maximize_mp(FIG4, seed=0, effort=eff)
+    assert canonical_batch(out[None]).texts() == canonical_batch(FIG4[None]).texts()
