@@ -1,6 +1,8 @@
 """Decode speed: Order Type Tag decoder vs cv2.aruco.ArucoDetector on the same 640×480 scenes.
 
-Usage: OTTAG_AICHHOLZER_DIR=../shared/otdb python benchmarks/decode_speed.py [frames]
+Usage: OTTAG_AICHHOLZER_DIR=../shared/otdb python benchmarks/decode_speed.py [frames] [cv2_threads]
+(``cv2_threads`` = 1 compares single-threaded; by default OpenCV may use every core for ArUco,
+while our decoder's Python work runs on one.)
 Each scene is rendered twice with the same pose, blur, noise, light and JPEG: once with an Order
 Type Tag (k = 8, project layout and placement), once with an ArUco 6×6 marker of the same
 data-area size. Prints ms/frame for both detectors and the ratio (target ≤ 1.0).
@@ -79,4 +81,6 @@ def main(frames: int = 100) -> None:
 
 
 if __name__ == "__main__":
+    if len(sys.argv) > 2:
+        cv2.setNumThreads(int(sys.argv[2]))
     main(int(sys.argv[1]) if len(sys.argv) > 1 else 100)
