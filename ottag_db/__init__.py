@@ -19,6 +19,16 @@ from .canonical import (
     relabel_lambda,
 )
 from .db import Database, head_revision, open_database
+from .decoder import Detection, Detector, DetectorParams, Rejected
+from .dictionary import (
+    DictionaryInfo,
+    DictionaryOptions,
+    create_dictionary,
+    dictionary_lookup,
+    export_dictionary,
+    get_dictionary,
+    import_dictionary,
+)
 from .errors import (
     DatabaseError,
     DecodeError,
@@ -31,6 +41,9 @@ from .errors import (
     PointFileError,
     UsageError,
 )
+from .export import TagFilter, export_sheet, render_tag
+from .flipgraph import FlipEdge, flip_neighbours
+from .generate import generate_database
 from .geometry import (
     check_general_position,
     general_position_mask,
@@ -43,6 +56,7 @@ from .geometry import (
     orientation_tensor,
 )
 from .importer import ImportReport, import_point_file, import_point_files
+from .layout import Layout, compute_layout, compute_layouts, validate_layout
 from .lookup import LookupEntry, MemoryLookup, TagLookup
 from .pointfile import (
     OFFICIAL_RECORD_COUNTS,
@@ -52,6 +66,7 @@ from .pointfile import (
     read_point_file,
     write_point_file,
 )
+from .pose import Pose, estimate_pose
 from .queries import (
     MP_THRESHOLDS,
     IdResult,
@@ -63,6 +78,10 @@ from .queries import (
     identify_points,
     list_order_types,
 )
+from .realize import maximize_mp
+from .render import TagGeometry, build_tag_geometry, render_raster, render_svg, tag_placement
+from .sheet import SheetOptions, SheetTag, write_tag_sheet
+from .tags import TagRecord, ensure_layouts, load_lookup, select_tags
 
 __all__ = [
     "MP_THRESHOLDS",
@@ -72,13 +91,20 @@ __all__ = [
     "Database",
     "DatabaseError",
     "DecodeError",
+    "Detection",
+    "Detector",
+    "DetectorParams",
     "DictionaryError",
+    "DictionaryInfo",
+    "DictionaryOptions",
     "ExportError",
+    "FlipEdge",
     "GeneralPositionError",
     "IdResult",
     "ImportReport",
     "KStats",
     "LambdaFormatError",
+    "Layout",
     "LookupEntry",
     "MemoryLookup",
     "NotFoundError",
@@ -87,22 +113,42 @@ __all__ = [
     "OttagError",
     "PointFileError",
     "PointFileInfo",
+    "Pose",
+    "Rejected",
+    "SheetOptions",
+    "SheetTag",
+    "TagFilter",
+    "TagGeometry",
     "TagLookup",
+    "TagRecord",
     "UsageError",
     "__version__",
+    "build_tag_geometry",
     "canonical_batch",
     "canonical_form",
     "canonical_lambda",
     "canonical_orderings",
     "canonicalize_lambdas",
     "check_general_position",
+    "compute_layout",
+    "compute_layouts",
+    "create_dictionary",
     "database_stats",
+    "dictionary_lookup",
+    "ensure_layouts",
+    "estimate_pose",
+    "export_dictionary",
+    "export_sheet",
+    "flip_neighbours",
     "general_position_mask",
+    "generate_database",
+    "get_dictionary",
     "get_order_type",
     "head_revision",
     "hull_size",
     "hull_sizes",
     "identify_points",
+    "import_dictionary",
     "import_point_file",
     "import_point_files",
     "inspect_point_file",
@@ -112,13 +158,22 @@ __all__ = [
     "lambda_text",
     "lambda_texts",
     "list_order_types",
+    "load_lookup",
     "maximal_perturbation",
     "maximal_perturbations",
+    "maximize_mp",
     "mirror_lambdas",
     "open_database",
     "orientation_tensor",
     "parse_lambda_text",
     "read_point_file",
     "relabel_lambda",
+    "render_raster",
+    "render_svg",
+    "render_tag",
+    "select_tags",
+    "tag_placement",
+    "validate_layout",
     "write_point_file",
+    "write_tag_sheet",
 ]
