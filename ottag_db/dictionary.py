@@ -46,7 +46,6 @@ __all__ = [
     "get_dictionary",
     "import_dictionary",
     "list_dictionaries",
-    "nearest_member",
     "neighbour_members",
     "neighbours",
 ]
@@ -483,26 +482,6 @@ def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
             extra={"tags": dict(pols), "dictionary": name},
         )
     return MemoryLookup(entries.values())
-
-
-def nearest_member(db: Database, name: str, lambda_txt: str) -> int | None:
-    """Number of the dictionary member one flip away from ``lambda_txt``, if any (lowest number)."""
-    with db.session() as s:
-        d = s.execute(select(Dictionary).where(Dictionary.name == name)).scalar_one_or_none()
-        if d is None:
-            raise NotFoundError(f"no dictionary named {name!r}")
-        mat = parse_lambda_text(lambda_txt)
-        ot = s.execute(
-            select(OrderType.id).where(OrderType.k == mat.shape[0], OrderType.canonical_lambda == lambda_text(mat))
-        ).scalar_one_or_none()
-        if ot is None:
-            return None
-        row = s.execute(
-            select(func.min(DictionaryTag.number))
-            .join(FlipEdgeRow, FlipEdgeRow.target_id == DictionaryTag.order_type_id)
-            .where(DictionaryTag.dictionary_id == d.id, FlipEdgeRow.source_id == ot)
-        ).scalar_one_or_none()
-    return None if row is None else int(row)
 
 
 def neighbour_members(db: Database, name: str) -> dict[str, int]:

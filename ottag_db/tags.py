@@ -8,11 +8,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session, selectinload
 
 from .db import Database
-from .errors import ExportError, NotFoundError
+from .errors import NotFoundError
 from .geometry import maximal_perturbations
 from .layout import compute_layouts, layout_supported
 from .lookup import LookupEntry, MemoryLookup
@@ -207,16 +207,3 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
         for ot_id, k, text, uniq in ots
     ]
     return MemoryLookup(entries)
-
-
-def count_tags(db: Database) -> int:
-    """Number of order types that can be drawn (k = 3, 5 … 8)."""
-    with db.session() as s:
-        n = s.execute(select(func.count()).select_from(OrderType).where(OrderType.k != 4)).scalar_one()
-    return int(n)
-
-
-def require_tags(tags: Sequence[TagRecord], summary: str) -> None:
-    """Raise :class:`ExportError` when a filter selected nothing."""
-    if not tags:
-        raise ExportError(f"no tags match the filters ({summary}); nothing written")

@@ -12,7 +12,13 @@ from sqlalchemy import select
 
 from ottag_db.cli import cli
 from ottag_db.db import open_database
-from ottag_db.dictionary import DictionaryOptions, create_dictionary, ensure_flip_graph, get_dictionary
+from ottag_db.dictionary import (
+    DictionaryOptions,
+    create_dictionary,
+    ensure_flip_graph,
+    get_dictionary,
+    neighbours,
+)
 from ottag_db.errors import DictionaryError
 from ottag_db.importer import import_point_file
 from ottag_db.models import FlipEdgeRow, OrderType
@@ -76,6 +82,10 @@ def test_d2_dictionary_has_no_internal_edge(mdb: Path) -> None:
         assert edges
         internal = [(a, b) for a, b in edges if a != b and a in members and b in members]
         assert internal == []
+        first = next(m for m in info.members if m.k == 8)
+        nbrs = neighbours(db, first.lambda_text)
+        member_texts = {m.lambda_text for m in info.members}
+        assert nbrs and all(t not in member_texts or t == first.lambda_text for t, _ in nbrs)
         assert [m.number for m in info.members] == list(range(len(info.members)))
         counts = info.counts()
         assert counts[8] > 1000  # more tags than ArUco 6x6_1000, with single-flip protection
