@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .canonical import canonical_orderings, lambda_text
+from .canonical import lambda_text
 from .errors import DecodeError, UsageError
 from .lookup import LookupEntry, TagLookup
 
@@ -403,8 +403,11 @@ class Detector:
                     continue
                 if q[:, 0].min() < 2 or q[:, 1].min() < 2 or q[:, 0].max() > w - 3 or q[:, 1].max() > h - 3:
                     continue
-                sides = np.linalg.norm(q - np.roll(q, -1, axis=0), axis=1)
-                if sides.min() < p.min_quad_side_px:
+                (ax, ay), (bx, by), (cx, cy), (dx, dy) = q.tolist()
+                if min(
+                    math.hypot(bx - ax, by - ay), math.hypot(cx - bx, cy - by),
+                    math.hypot(dx - cx, dy - cy), math.hypot(ax - dx, ay - dy),
+                ) < p.min_quad_side_px:  # fmt: skip
                     continue
                 q = _clockwise(q)
                 polarity: Polarity = "inverted" if inverted else "normal"
@@ -444,7 +447,7 @@ class Detector:
         if thr is None or thr[2] - thr[1] < p.min_contrast:
             return reject("low_contrast", "" if thr is None else f"{thr[2] - thr[1]:.0f} grey levels")
         t_mid = 0.5 * (thr[1] + thr[2])
-        fg = ((roi > t_mid).astype(np.uint8) * 255) & mask
+        fg: NDArray[Any] = cv2.bitwise_and(cv2.threshold(roi, t_mid, 255, cv2.THRESH_BINARY)[1], mask)
         frac = cv2.countNonZero(fg) / max(cv2.countNonZero(mask), 1)
         if frac < 0.01 or frac > 0.75:
             return reject("no_triangles", f"bright fraction {frac:.2f}")
@@ -459,23 +462,31 @@ class Detector:
         if decomps[0].count > _MAX_TRIANGLES:
             return reject("non_triangle", f"{decomps[0].count} triangles")
         roi_f = roi.astype(np.float32)
-        # Data-area sides at sub-pixel precision on the grey image.
-        qn, qc = _lines_through(ql)
-        qn, qc = _refine_lines(roi_f, qn, qc, ql.reshape(1, 4, 2), 4, t_mid)
-        corners_l = _polygon_vertices(qn, qc, 4)
-        if not np.isfinite(corners_l).all() or np.abs(corners_l - ql).max() > 0.1 * side + 3:
-            corners_l = ql
-        corners = corners_l + origin
         tol = max(p.merge_radius_px, p.merge_radius_rel * side)
         sure = max(2 * p.merge_radius_px, 2 * p.merge_radius_rel * side)
         first: Rejected | None = None
         more: Callable[[], list[_Triangles] | str] = (
             (lambda: self._triangles(fg, side, alternatives=True)) if self._alternatives else (lambda: "none")
         )
+        corners_l: _F64 | None = None
+        corners = q
         for tris in _then_alternatives(decomps, more):
-            # Sub-pixel triangle sides on the grey image.
+            # Sub-pixel triangle sides on the grey image (with the data-area sides, first time).
             n_t, c_t = _fit_chains(tris.chains)
-            n_t, c_t = _refine_lines(roi_f, n_t, c_t, _triangle_vertices(n_t, c_t), 3, t_mid)
+            verts = _triangle_vertices(n_t, c_t)
+            if corners_l is None:
+                qn, qc = _lines_through(ql)
+                n_all, c_all = _refine_lines(
+                    roi_f, np.concatenate([n_t, qn]), np.concatenate([c_t, qc]), verts, t_mid, quad=ql
+                )
+                st = len(c_t)
+                n_t, c_t = n_all[:st], c_all[:st]
+                corners_l = _polygon_vertices(n_all[st:], c_all[st:], 4)
+                if not np.isfinite(corners_l).all() or np.abs(corners_l - ql).max() > 0.1 * side + 3:
+                    corners_l = ql
+                corners = corners_l + origin
+            else:
+                n_t, c_t = _refine_lines(roi_f, n_t, c_t, verts, t_mid)
             verts = _triangle_vertices(n_t, c_t)
             bad = _bad_triangles(verts, corners_l, side)
             if bad:
@@ -579,16 +590,16 @@ class Detector:
         k = len(pts)
         if k < 3 or k > 8 or (k not in self._ks and not p.allow_unknown):
             return reject("point_count", f"{k} points")
-        margin = _margin(pts)
+        margin, orderings = _read_orderings(pts)
         if not margin > 0:
             return reject("general_position")
-        orderings = canonical_orderings(pts)
         best_mat = orderings[0][1]
         lam = lambda_text(best_mat)
         if margin < p.min_margin_px:
             low = reject("low_margin", f"margin {margin:.2f} px", lam)
             return self._disambiguate(pts, lines, corners, quad, margin, low) if p.verify else low
-        minimal = [lab for lab, mat in orderings if np.array_equal(mat, best_mat)]
+        best_key = best_mat.tobytes()
+        minimal = [lab for lab, mat in orderings if mat.tobytes() == best_key]
         entry = self.lookup.get(lam)
         if entry is None:
             if not p.allow_unknown:
@@ -637,9 +648,9 @@ class Detector:
         for side in (1.0, -1.0):
             moved = pts.copy()
             moved[pt] += (side * p.min_margin_px - s) * nrm
-            if _margin(moved) <= 0:
+            moved_margin, orderings = _read_orderings(moved)
+            if moved_margin <= 0:
                 return low
-            orderings = canonical_orderings(moved)
             best_mat = orderings[0][1]
             lam = lambda_text(best_mat)
             entry = self.lookup.get(lam)
@@ -677,16 +688,22 @@ class Detector:
         # every (realization, minimal labeling): homography, largest point error, and how far
         # the corners mapped back to the tag plane are from a parallelogram (rel. to the side)
         fits: list[tuple[float, float, _F64, _F64, _F64, _F64]] = []
+        system = _line_system(lines)
+        k = len(pts)
         for src in self._realization_arrays(lam, entry):
+            if system is None:
+                break  # fewer than 8 side lines: no homography
             if src.shape != pts.shape:
                 continue
             for lab in minimal:
                 dst = pts[list(lab)]
-                lab_lines = [lines[i] for i in lab]
-                hmat = _homography_lines(src, lab_lines)
+                model_of = np.empty(k, dtype=np.intp)
+                model_of[list(lab)] = np.arange(k)  # detected point index → model point index
+                rep = model_of[system.owner]
+                hmat = _homography_lines(src, system, rep)
                 if hmat is None:
                     continue
-                err = _line_error(hmat, src, lab_lines)
+                err = _line_error(hmat, src, system, rep)
                 try:
                     g = _apply_h(np.asarray(np.linalg.inv(hmat), dtype=np.float64), corners)
                 except np.linalg.LinAlgError:
@@ -726,10 +743,15 @@ class Detector:
             fits, key=lambda f: f[0] / bound + quad_w * min(f[1], 1e6) / max(p.max_quad_error, 1e-9)
         )
         ordered = corners
-        if np.isfinite(g).all():
-            ang = np.arctan2(g[:, 1] - g[:, 1].mean(), g[:, 0] - g[:, 0].mean())
-            start = int(np.argmin(np.abs(np.angle(np.exp(1j * (ang + 0.75 * math.pi))))))
-            order = np.argsort(np.mod(ang - ang[start], 2 * math.pi))
+        gl = g.tolist()
+        if all(math.isfinite(v) for xy in gl for v in xy):
+            gx = sum(x for x, _ in gl) / 4
+            gy = sum(y for _, y in gl) / 4
+            ang = [math.atan2(y - gy, x - gx) for x, y in gl]
+            # start at the corner seen up-left of the centre in the tag plane (−135°)
+            wrapped = [abs(math.remainder(a + 0.75 * math.pi, 2 * math.pi)) for a in ang]
+            start = wrapped.index(min(wrapped))
+            order = sorted(range(4), key=lambda c: (ang[c] - ang[start]) % (2 * math.pi))
             ordered = corners[order]
         return Detection(
             lambda_=lam,
@@ -810,11 +832,13 @@ class Detector:
 # ---------------------------------------------------------------------- helpers
 def _clockwise(q: _F64) -> _F64:
     """Order 4 corners clockwise on screen (y down), starting nearest the image origin."""
-    c = q.mean(axis=0)
-    ang = np.arctan2(q[:, 1] - c[1], q[:, 0] - c[0])
-    q = q[np.argsort(ang)]
-    start = int(np.argmin(q.sum(axis=1)))
-    return np.roll(q, -start, axis=0)
+    pts = q.tolist()
+    cx = sum(x for x, _ in pts) / len(pts)
+    cy = sum(y for _, y in pts) / len(pts)
+    pts.sort(key=lambda xy: math.atan2(xy[1] - cy, xy[0] - cx))
+    sums = [x + y for x, y in pts]
+    start = sums.index(min(sums))
+    return np.array(pts[start:] + pts[:start], dtype=np.float64)
 
 
 def _around_detection(quad: _Quad, detections: list[Detection]) -> bool:
@@ -849,24 +873,25 @@ def _same_tag(a: Detection, b: Detection) -> bool:
 
 def _otsu(hist: NDArray[Any]) -> tuple[int, float, float] | None:
     """Otsu threshold of a 256-bin histogram and the means of the two classes."""
-    hist = hist.astype(np.float64)
-    total = hist.sum()
+    w0 = np.cumsum(hist, dtype=np.float64)
+    total = float(w0[-1])
     if total < 16:
         return None
-    levels = np.arange(256, dtype=np.float64)
-    w0 = np.cumsum(hist)
-    s0 = np.cumsum(hist * levels)
-    w1 = total - w0
-    s1 = s0[-1] - s0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        m0 = s0 / w0
-        m1 = s1 / w1
-        between = w0 * w1 * (m0 - m1) ** 2
-    between = np.nan_to_num(between, nan=-1.0)
+    s0 = np.cumsum(hist * _LEVELS)
+    s_all = float(s0[-1])
+    # between-class variance w0·w1·(m0 − m1)² = (total·s0 − s_all·w0)² / (w0·w1)
+    num = total * s0 - s_all * w0
+    den = w0 * (total - w0)
+    between = np.divide(num * num, den, out=np.full(256, -1.0), where=den > 0)
     t = int(np.argmax(between))
-    if w0[t] <= 0 or w1[t] <= 0:
+    w0t = float(w0[t])
+    if w0t <= 0 or total - w0t <= 0:
         return None
-    return t, float(m0[t]), float(m1[t])
+    s0t = float(s0[t])
+    return t, s0t / w0t, (s_all - s0t) / (total - w0t)
+
+
+_LEVELS = np.arange(256, dtype=np.float64)
 
 
 def _triangle_fit(pts: NDArray[Any], strict: float = 0.0) -> list[NDArray[np.float64]] | None:
@@ -967,7 +992,7 @@ def _off_triangle(pts: _F64, tri: _F64, tol_px: float) -> int:
     """How many contour points lie farther than ``max(tol_px, 0.6 %`` of the longest side) from
     every side segment of the triangle ``tri``."""
     a = tri
-    d = np.roll(tri, -1, axis=0) - a
+    d = tri[_NEXT3] - a
     ln2 = np.maximum((d * d).sum(axis=1), 1e-12)
     rel = pts[:, None, :] - a[None, :, :]  # (n, 3, 2)
     u = np.clip((rel * d[None]).sum(axis=2) / ln2[None], 0.0, 1.0)
@@ -996,6 +1021,7 @@ def _bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
 
 _MAX_DECOMPOSITIONS = 10
 _NEXT4 = np.array([1, 2, 3, 0])
+_NEXT3 = np.array([1, 2, 0])
 #: The half-resolution candidate search is used only while the smallest data area keeps at
 #: least this side (px) there.
 _HALF_RES_MIN_SIDE = 6.0
@@ -1042,6 +1068,9 @@ def _component_decompositions(
     keys: set[tuple[float, ...]] = set()
 
     def add(chains: list[NDArray[np.float64]]) -> None:
+        if not alternatives:
+            out.append(chains)  # the first decomposition only: nothing to deduplicate
+            return
         key = tuple(sorted(round(float(v), 0) for ch in chains for v in (ch[0, 0], ch[0, 1])))
         if key not in keys:
             keys.add(key)
@@ -1131,13 +1160,14 @@ def _split_triangles(
     # from a concave point to a contour point at most 3 px away (a pinch the hull hides)
     cuts: list[tuple[float, int, int]] = []
     cut_max = max(4.0, 0.2 * math.sqrt(abs(float(cv2.contourArea(c)))))
-    for u in range(len(far_pts)):
-        for v in range(u + 1, len(far_pts)):
-            i, j = int(far_pts[u]), int(far_pts[v])
-            sep = min(abs(i - j), n - abs(i - j))
-            dist = float(np.linalg.norm(flat[i] - flat[j]))
-            if sep >= min_sep and dist <= cut_max:
-                cuts.append((dist, i, j))
+    if len(far_pts) > 1:
+        uu, vv = np.triu_indices(len(far_pts), 1)
+        fi, fj = far_pts[uu], far_pts[vv]
+        gap = np.abs(fi - fj)
+        pair_d = flat[fi] - flat[fj]
+        pair_len = np.hypot(pair_d[:, 0], pair_d[:, 1])
+        ok = (np.minimum(gap, n - gap) >= min_sep) & (pair_len <= cut_max)
+        cuts = list(zip(pair_len[ok].tolist(), fi[ok].tolist(), fj[ok].tolist(), strict=True))
     cuts.sort()
     cuts = cuts[:5]
     idx = np.arange(n)
@@ -1305,7 +1335,7 @@ def _bad_triangles(verts: _F64, quad: _F64, side: float) -> str:
     v = verts.reshape(-1, 2)
     # inside the data area: on the inner side of every quad side (convex, either orientation)
     a = quad
-    d = np.roll(quad, -1, axis=0) - a
+    d = quad[_NEXT4] - a
     cross = d[None, :, 0] * (v[:, None, 1] - a[None, :, 1]) - d[None, :, 1] * (v[:, None, 0] - a[None, :, 0])
     cross /= np.hypot(d[:, 0], d[:, 1])[None, :]
     slack = 1.0 + 0.01 * side
@@ -1316,7 +1346,7 @@ def _bad_triangles(verts: _F64, quad: _F64, side: float) -> str:
         return ""
     near = max(0.8, 0.008 * side)
     sa = verts.reshape(-1, 2)  # side j of triangle i runs from vertex j to j + 1
-    sb = np.roll(verts, -1, axis=1).reshape(-1, 2)
+    sb = verts[:, _NEXT3].reshape(-1, 2)
     sd = sb - sa
     ln = np.maximum(np.hypot(sd[:, 0], sd[:, 1]), 1e-9)
     unit = sd / ln[:, None]
@@ -1328,7 +1358,7 @@ def _bad_triangles(verts: _F64, quad: _F64, side: float) -> str:
     pa = ((sa[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
     pb = ((sb[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
     overlap = np.minimum(np.maximum(pa, pb), ln[:, None]) - np.maximum(np.minimum(pa, pb), 0.0)
-    own = (np.arange(len(sa)) // 3)[:, None] == (np.arange(len(sa)) // 3)[None, :]
+    own = _same_triangle(len(sa))
     shared = (off_a < near) & (off_b < near) & (overlap > np.minimum(ln[:, None], ln[None, :]) / 3) & ~own
     if shared.any():
         return "two triangles share part of a side"
@@ -1362,7 +1392,7 @@ def _lines_from_moments(mx: _F64, my: _F64, sxx: _F64, sxy: _F64, syy: _F64) -> 
 def _lines_through(poly: _F64) -> tuple[_F64, _F64]:
     """Lines of the sides of one closed polygon (side i from vertex i to i+1)."""
     a = poly
-    b = np.roll(poly, -1, axis=0)
+    b = poly[_next_index(len(poly), len(poly))]
     d = b - a
     normal = np.stack([-d[:, 1], d[:, 0]], axis=1)
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
@@ -1413,68 +1443,71 @@ def _triangle_vertices(normal: _F64, offset: _F64) -> _F64:
 
 
 def _refine_lines(
-    img: NDArray[np.float32], normal: _F64, offset: _F64, verts: _F64, m: int, level: float
+    img: NDArray[np.float32],
+    normal: _F64,
+    offset: _F64,
+    tri_verts: _F64,
+    level: float,
+    quad: _F64 | None = None,
 ) -> tuple[_F64, _F64]:
     """Move each side line to the ``level`` crossings of the grey image along its normals.
 
-    ``verts`` ``(P, m, 2)`` are the current polygon vertices; side j runs from vertex j to
-    j+1. Samples 16 positions on the middle 84 % of each side, 13 offsets in ±3 px
-    (bilinear), takes the crossing nearest the line and refits by least squares. Sides with
-    fewer than 3 crossings keep their line.
+    The lines are the sides of the triangles ``tri_verts`` ``(T, 3, 2)`` (side j runs from
+    vertex j to j+1), followed, when ``quad`` ``(4, 2)`` is given, by the 4 sides of the
+    data area: one pass (one ``remap``) refines both. Samples 16 positions on the middle 84 %
+    of each side, 13 offsets in ±3 px (bilinear), takes the crossing nearest the line and
+    refits by least squares. Sides with fewer than 3 crossings keep their line.
 
-    For triangles (``P > 1`` or ``m == 3``) a sample counts only where the shape is wide
-    enough: its distance to every other side (of any triangle) must be at least
-    ``min(3 px, 0.6 × the side's widest sample)``. Across a sliver narrower than the blur the
-    grey level never reaches the bright level and the crossings move inward, which would
-    make needle tips overshoot along their axis.
+    A triangle sample counts only where the shape is wide enough: its distance to every other
+    triangle side must be at least ``min(3 px, 0.6 × the side's widest sample)``. Across a
+    sliver narrower than the blur the grey level never reaches the bright level and the
+    crossings move inward, which would make needle tips overshoot along their axis.
     """
-    a = verts.reshape(-1, 2)
+    at = tri_verts.reshape(-1, 2)
+    st = len(at)
+    if quad is not None:
+        a = np.concatenate([at, quad])
+        b = np.concatenate([at[_next_index(st, 3)], quad[_NEXT4]])
+    else:
+        a = at
+        b = at[_next_index(st, 3)]
     s = len(a)
-    b = a[_next_index(s, m)]
     finite: NDArray[np.bool_] = np.asarray(np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1), dtype=bool)
     if not finite.all():
         a = np.where(finite[:, None], a, 0.0)
         b = np.where(finite[:, None], b, 0.0)
-    n_s = len(_REFINE_FR)
     sd = b - a
     base = a[:, None, :] + _REFINE_FR[None, :, None] * sd[:, None, :]  # (S, M, 2)
     # project base points onto the current lines
     dist = base @ normal[:, :, None]  # (S, M, 1)
     base -= (dist - offset[:, None, None]) * normal[:, None, :]
-    if m == 3:
-        # distance of every sample to every other side segment
-        ln2 = np.maximum((sd * sd).sum(axis=1), 1e-12)
-        rel = base[:, :, None, :] - a[None, None, :, :]  # (S, M, S, 2)
-        u = np.clip(np.einsum("ijkl,kl->ijk", rel, sd) / ln2, 0.0, 1.0)
-        rel -= u[..., None] * sd
-        gap = np.einsum("ijkl,ijkl->ijk", rel, rel)
-        gap[np.arange(s), :, np.arange(s)] = np.inf
-        width = np.sqrt(gap.min(axis=2))  # (S, M)
-        thr = np.minimum(3.0, 0.6 * width.max(axis=1))
-        wide = width >= thr[:, None]
-    else:
-        wide = np.ones((s, n_s), dtype=bool)
+    # distance of every triangle sample to every other triangle side segment
+    sdt = sd[:st]
+    ln2 = np.maximum((sdt * sdt).sum(axis=1), 1e-12)
+    rel = base[:st, :, None, :] - a[None, None, :st, :]  # (St, M, St, 2)
+    u = np.clip(np.einsum("ijkl,kl->ijk", rel, sdt) / ln2, 0.0, 1.0)
+    rel -= u[..., None] * sdt
+    gap = np.einsum("ijkl,ijkl->ijk", rel, rel)
+    gap[np.arange(st), :, np.arange(st)] = np.inf
+    width = np.sqrt(gap.min(axis=2))  # (St, M)
+    wide = np.ones((s, len(_REFINE_FR)), dtype=bool)
+    wide[:st] = width >= np.minimum(3.0, 0.6 * width.max(axis=1))[:, None]
     offs = _REFINE_OFFS
     n_o = len(offs)
     samp = base[:, :, None, :] + offs[None, None, :, None] * normal[:, None, None, :]  # (S, M, O, 2)
     samp32 = samp.astype(np.float32).reshape(-1, n_o, 2)
-    vals = cv2.remap(img, samp32, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload]
-    vals = vals.reshape(s, n_s, n_o).astype(np.float64) - level
+    vals32 = cv2.remap(img, samp32, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload]
+    vals = vals32.reshape(s * len(_REFINE_FR), n_o).astype(np.float64) - level
     above = vals > 0
-    change = above[:, :, 1:] != above[:, :, :-1]  # crossing between o and o+1
-    score = np.where(change, _REFINE_MID, np.inf)
-    j = np.argmin(score, axis=2)
-    valid = change.any(axis=2) & wide
-    flat_vals = vals.reshape(-1, n_o)
-    rows = np.arange(len(flat_vals))
-    jf = j.ravel()
-    v0 = flat_vals[rows, jf].reshape(j.shape)
-    v1 = flat_vals[rows, jf + 1].reshape(j.shape)
-    den = v0 - v1
+    change = above[:, 1:] != above[:, :-1]  # crossing between o and o+1
+    j = np.argmin(np.where(change, _REFINE_MID, np.inf), axis=1)
+    rows = np.arange(len(vals))
+    v0 = vals[rows, j]
+    den = v0 - vals[rows, j + 1]
     step = den != 0
-    frac = np.where(step, v0 / np.where(step, den, 1.0), 0.5)
-    o = offs[j] + frac * (offs[1] - offs[0])
-    pts = base + o[:, :, None] * normal[:, None, :]
+    o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
+    valid = (change.any(axis=1) & wide.ravel()).reshape(s, -1)
+    pts = base + o.reshape(s, -1)[:, :, None] * normal[:, None, :]
     w = valid.astype(np.float64)
     cnt = w.sum(axis=1)
     good = (cnt >= 3) & finite
@@ -1496,6 +1529,15 @@ def _refine_lines(
 _REFINE_FR = np.linspace(0.08, 0.92, 16)
 _REFINE_OFFS = np.linspace(-3.0, 3.0, 13)
 _REFINE_MID = np.abs(0.5 * (_REFINE_OFFS[1:] + _REFINE_OFFS[:-1]))
+
+
+@functools.lru_cache(maxsize=32)
+def _same_triangle(s: int) -> NDArray[np.bool_]:
+    """``(s, s)`` mask of side pairs of one triangle (sides 3t, 3t+1, 3t+2; cached: read-only)."""
+    t = np.arange(s) // 3
+    out: NDArray[np.bool_] = t[:, None] == t[None, :]
+    out.flags.writeable = False
+    return out
 
 
 def _ls_point_lists(nl: list[list[float]], ol: list[float], ids: list[int]) -> tuple[tuple[float, float] | None, float]:
@@ -1534,15 +1576,12 @@ def _cluster_hypotheses(
     """
     v = verts.reshape(-1, 2)
     n = len(v)
-    tri = np.arange(n) // 3
-    corner = np.arange(n) % 3
-    # the two side lines through each vertex estimate
-    line_ids = np.stack([3 * tri + (corner + 2) % 3, 3 * tri + corner], axis=1)
+    tri, lid, other = _vertex_tables(n)
     nl: list[list[float]] = normal.tolist()
     ol: list[float] = offset.tolist()
-    lid: list[list[int]] = line_ids.tolist()
-    d = np.linalg.norm(v[:, None, :] - v[None, :, :], axis=2)
-    ii, jj = np.nonzero(np.triu(d < cap, 1) & (tri[:, None] != tri[None, :]))
+    dv = v[:, None, :] - v[None, :, :]
+    d = np.sqrt((dv * dv).sum(axis=2))
+    ii, jj = np.nonzero((d < cap) & other)
     order = np.argsort(d[ii, jj], kind="stable")
     sure_pairs: list[tuple[int, int]] = []
     doubtful: list[tuple[int, int]] = []
@@ -1577,6 +1616,20 @@ def _cluster_hypotheses(
     return out
 
 
+@functools.lru_cache(maxsize=32)
+def _vertex_tables(n: int) -> tuple[NDArray[np.int64], list[list[int]], NDArray[np.bool_]]:
+    """For ``n`` triangle vertex estimates (vertex j of triangle t at 3t + j): the triangle of
+    each, the two side lines through each (side j runs from vertex j to j+1) and the mask
+    of pairs ``i < j`` of different triangles (cached: read-only)."""
+    tri = np.arange(n) // 3
+    corner = np.arange(n) % 3
+    lid = np.stack([3 * tri + (corner + 2) % 3, 3 * tri + corner], axis=1).tolist()
+    other = np.triu(tri[:, None] != tri[None, :], 1)
+    for arr in (tri, other):
+        arr.flags.writeable = False
+    return tri, lid, other
+
+
 def _merge(
     pairs: list[tuple[int, int]],
     n: int,
@@ -1609,58 +1662,123 @@ def _merge(
 
 def _margin(pts: _F64) -> float:
     """Smallest distance (px) from a point to the line through two other points."""
-    k = len(pts)
+    return _cross_table(pts)[1]
+
+
+@functools.lru_cache(maxsize=16)
+def _pair_tables(k: int) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """Pairs ``i < j`` of ``k`` points and the mask of (pair, point) entries where the point is
+    one of the pair (cached: read-only)."""
     i, j = np.triu_indices(k, 1)
-    a, b = pts[i], pts[j]
-    d = b - a
-    ln = np.hypot(d[:, 0], d[:, 1])
-    cross = d[:, None, 0] * (pts[None, :, 1] - a[:, None, 1]) - d[:, None, 1] * (pts[None, :, 0] - a[:, None, 0])
-    dist = np.abs(cross) / np.maximum(ln[:, None], 1e-12)
     idx = np.arange(k)
-    dist[(idx[None, :] == i[:, None]) | (idx[None, :] == j[:, None])] = np.inf
-    return float(dist.min())
+    own = (idx[None, :] == i[:, None]) | (idx[None, :] == j[:, None])
+    for arr in (i, j, own):
+        arr.flags.writeable = False
+    return i, j, own
 
 
-def _homography_lines(src: _F64, lines: list[tuple[_F64, _F64]]) -> _F64 | None:
-    """Homography mapping each ``src`` point onto the side lines through its detected point.
+def _cross_table(pts: _F64) -> tuple[_F64, float]:
+    """Orientation values of every pair ``i < j`` against every point (``(P, k)``, the brief's
+    convention: negative = left of i→j) and the margin (smallest point-to-line distance, px)."""
+    i, j, own = _pair_tables(len(pts))
+    a = pts[i]
+    d = pts[j] - a
+    cross = d[:, None, 0] * (pts[None, :, 1] - a[:, None, 1]) - d[:, None, 1] * (pts[None, :, 0] - a[:, None, 0])
+    ln = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-12)
+    dist = np.abs(cross) / ln[:, None]
+    dist[own] = np.inf
+    return cross, float(dist.min())
 
-    Linear least squares (normalised DLT) on the incidences ``l·H·x = 0`` of every model point
-    ``x`` with every image line ``l`` fitted through the detected point; a vertex is thus
-    constrained across each of its sides, where it is measured well, and not along the axis
-    of a sharp tip, where the side lines meet at a small angle. Falls back to None when the
-    system is degenerate.
+
+def _read_orderings(pts: _F64) -> tuple[float, list[tuple[tuple[int, ...], NDArray[np.int8]]]]:
+    """Margin (px) and the canonical orderings of one detected point set, smallest λ first.
+
+    The single-set equivalent of :func:`~ottag_db.canonical.canonical_orderings` (same
+    orientation convention and labels) sharing one orientation table with the margin: the
+    batched core pays array set-up costs that dominate for one set of ≤ 8 points.
     """
-    nrm, off, rep = _stack_lines(lines)
+    k = len(pts)
+    cross, margin = _cross_table(pts)
+    if not margin > 0:
+        return margin, []
+    i, j, own = _pair_tables(k)
+    left = np.count_nonzero((cross < 0) & ~own, axis=1)
+    lam = np.zeros((k, k), dtype=np.int64)
+    lam[i, j] = left
+    lam[j, i] = k - 2 - left
+    hull = np.flatnonzero((lam == k - 2).any(axis=1))
+    # from hull vertex h, point j gets label k − 1 − λ(h, j) (see canonical._orderings_from_lambdas)
+    pos = (k - 1) - lam[hull]
+    pos[np.arange(len(hull)), hull] = 0
+    perms = np.zeros((len(hull), k), dtype=np.int64)
+    np.put_along_axis(perms, pos, np.broadcast_to(np.arange(k), pos.shape), axis=1)
+    mats = lam[perms[:, :, None], perms[:, None, :]].astype(np.int8)
+    keys = [m.tobytes() for m in mats]
+    order = sorted(range(len(hull)), key=keys.__getitem__)
+    return margin, [(tuple(perms[o].tolist()), mats[o]) for o in order]
+
+
+@dataclass(frozen=True)
+class _LineSystem:
+    """The side lines of one point hypothesis, stacked and normalised once for every
+    (realization, labeling) fit: unit normals ``nrm``, offsets ``off`` (n·x = c), the input
+    index of each line's point ``owner``, the lines in normalised homogeneous form ``lh`` and
+    the de-normalising map ``ti_inv``."""
+
+    nrm: _F64
+    off: _F64
+    owner: NDArray[np.intp]
+    lh: _F64
+    ti_inv: _F64
+
+
+def _line_system(lines: list[tuple[_F64, _F64]]) -> _LineSystem | None:
+    """Stack and normalise the side lines of a hypothesis (None if fewer than 8: no fit)."""
+    nrm, off, owner = _stack_lines(lines)
     if len(off) < 8:
         return None
-    # normalisation: model points to zero mean / unit spread; image lines to the same for
-    # the detected points (the least-squares points of the lines)
-    mc = src.mean(axis=0)
-    dm = src - mc
-    ms = math.sqrt(2.0) / max(float(np.sqrt((dm * dm).sum(axis=1)).mean()), 1e-12)
-    foot = nrm * off[:, None]  # a point of each line
+    # image lines normalised like their points: the feet of the lines to zero mean / unit spread
+    foot = nrm * off[:, None]
     ic = foot.mean(axis=0)
     df = foot - ic
-    spread = float(np.sqrt((df * df).sum(axis=1)).mean())
-    isc = math.sqrt(2.0) / max(spread, 1e-12)
+    isc = math.sqrt(2.0) / max(float(np.sqrt((df * df).sum(axis=1)).mean()), 1e-12)
     # a line (n, c) is the homogeneous vector (n_x, n_y, -c); lines map by ti^-T, where
     # ti^-1 = [[1/isc, 0, ic_x], [0, 1/isc, ic_y], [0, 0, 1]]
     lh = np.empty((len(off), 3))
     lh[:, :2] = nrm / isc
     lh[:, 2] = nrm @ ic - off
     lh /= np.maximum(np.hypot(lh[:, 0], lh[:, 1]), 1e-12)[:, None]
+    ti_inv = np.array([[1.0 / isc, 0, ic[0]], [0, 1.0 / isc, ic[1]], [0, 0, 1.0]])
+    return _LineSystem(nrm, off, owner, lh, ti_inv)
+
+
+def _homography_lines(src: _F64, system: _LineSystem, rep: NDArray[np.intp]) -> _F64 | None:
+    """Homography mapping each ``src`` point onto the side lines through its detected point.
+
+    ``rep[l]`` is the index in ``src`` of the model point of line ``l``. Linear least squares
+    (normalised DLT) on the incidences ``l·H·x = 0`` of every model point ``x`` with every
+    image line ``l`` fitted through the detected point; a vertex is thus constrained across
+    each of its sides, where it is measured well, and not along the axis of a sharp tip,
+    where the side lines meet at a small angle. Falls back to None when the system is
+    degenerate.
+    """
+    mc = src.mean(axis=0)
+    dm = src - mc
+    ms = math.sqrt(2.0) / max(float(np.sqrt((dm * dm).sum(axis=1)).mean()), 1e-12)
     xs = np.empty((len(src), 3))
     xs[:, :2] = dm * ms
     xs[:, 2] = 1.0
-    a = (lh[:, :, None] * xs[rep][:, None, :]).reshape(len(off), 9)
+    lh = system.lh
+    a = (lh[:, :, None] * xs[rep][:, None, :]).reshape(len(lh), 9)
     try:
-        _, _, vt = np.linalg.svd(a, full_matrices=False)
+        # the least-squares null vector: eigenvector of the smallest eigenvalue of AᵀA (9 × 9;
+        # cheaper than the SVD of A, and the normalisation keeps AᵀA well conditioned)
+        _, vecs = np.linalg.eigh(a.T @ a)
     except np.linalg.LinAlgError:
         return None
-    hn = vt[-1].reshape(3, 3)
-    ti_inv = np.array([[1.0 / isc, 0, ic[0]], [0, 1.0 / isc, ic[1]], [0, 0, 1.0]])
+    hn = vecs[:, 0].reshape(3, 3)
     tm = np.array([[ms, 0, -ms * mc[0]], [0, ms, -ms * mc[1]], [0, 0, 1.0]])
-    hmat = ti_inv @ hn @ tm
+    hmat = system.ti_inv @ hn @ tm
     if not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
         return None
     out: _F64 = hmat / hmat[2, 2]
@@ -1675,13 +1793,12 @@ def _stack_lines(lines: list[tuple[_F64, _F64]]) -> tuple[_F64, _F64, NDArray[np
     return nrm, off, rep
 
 
-def _line_error(hmat: _F64, src: _F64, lines: list[tuple[_F64, _F64]]) -> float:
+def _line_error(hmat: _F64, src: _F64, system: _LineSystem, rep: NDArray[np.intp]) -> float:
     """Largest distance from a mapped model point to a side line through its detected point."""
     mapped = _apply_h(hmat, src)
     if not np.isfinite(mapped).all():
         return math.inf
-    nrm, off, rep = _stack_lines(lines)
-    return float(np.abs((nrm * mapped[rep]).sum(axis=1) - off).max())
+    return float(np.abs((system.nrm * mapped[rep]).sum(axis=1) - system.off).max())
 
 
 def _apply_h(hmat: _F64, pts: _F64) -> _F64:
