@@ -566,15 +566,15 @@ class Detector:
             self.__dict__["_up_detector"] = sub
         return sub
 
-    def _realization_arrays(self, lam: str, entry: LookupEntry) -> list[_F64]:
-        """The stored realizations of ``entry`` as float arrays (cached per ID: the lookup is
-        fixed for the detector's life)."""
-        cache: dict[str, list[_F64]] = self.__dict__.setdefault("_real_cache", {})
-        arrays = cache.get(lam)
-        if arrays is None:
-            arrays = [np.asarray(real, dtype=np.float64) for real in entry.realizations]
-            cache[lam] = arrays
-        return arrays
+    def _realization_models(self, lam: str, entry: LookupEntry) -> list[_Model]:
+        """The stored realizations of ``entry``, normalised for the homography fit (cached per
+        ID: the lookup is fixed for the detector's life)."""
+        cache: dict[str, list[_Model]] = self.__dict__.setdefault("_real_cache", {})
+        models = cache.get(lam)
+        if models is None:
+            models = [_model(np.asarray(real, dtype=np.float64)) for real in entry.realizations]
+            cache[lam] = models
+        return models
 
     def _identify(self, pts: _F64, lines: list[tuple[_F64, _F64]], corners: _F64, quad: _Quad) -> Detection | Rejected:
         """ID, lookup and verification of one point hypothesis (image pixels).
@@ -687,34 +687,40 @@ class Detector:
         bound = max(p.max_reproj_px, p.max_reproj_rel * side)
         # every (realization, minimal labeling): homography, largest point error, and how far
         # the corners mapped back to the tag plane are from a parallelogram (rel. to the side)
-        fits: list[tuple[float, float, _F64, _F64, _F64, _F64]] = []
+        fits: list[tuple[float, float, _F64, _F64, _F64, list[list[float]], _F64]] = []
         system = _line_system(lines)
         k = len(pts)
-        for src in self._realization_arrays(lam, entry):
+        for model in self._realization_models(lam, entry):
             if system is None:
                 break  # fewer than 8 side lines: no homography
+            src = model.points
             if src.shape != pts.shape:
                 continue
             for lab in minimal:
                 dst = pts[list(lab)]
-                model_of = np.empty(k, dtype=np.intp)
-                model_of[list(lab)] = np.arange(k)  # detected point index → model point index
-                rep = model_of[system.owner]
-                hmat = _homography_lines(src, system, rep)
+                model_of = [0] * k  # detected point index → model point index
+                for label, point in enumerate(lab):
+                    model_of[point] = label
+                rep = np.asarray(model_of)[system.owner]
+                hmat = _homography_lines(model, system, rep)
                 if hmat is None:
                     continue
-                err = _line_error(hmat, src, system, rep)
-                try:
-                    g = _apply_h(np.asarray(np.linalg.inv(hmat), dtype=np.float64), corners)
-                except np.linalg.LinAlgError:
+                mapped = _apply_h(hmat, src)
+                if not np.isfinite(mapped).all():
                     continue
-                e = g - g[_NEXT4]
-                sides = float(np.sqrt((e * e).sum(axis=1)).mean())
-                (g0x, g0y), (g1x, g1y), (g2x, g2y), (g3x, g3y) = g.tolist()
+                err = float(np.abs((system.nrm * mapped[rep]).sum(axis=1) - system.off).max())
+                g = _map_corners_back(hmat, corners)
+                if g is None:
+                    continue
+                (g0x, g0y), (g1x, g1y), (g2x, g2y), (g3x, g3y) = g
+                sides = 0.25 * (
+                    math.hypot(g1x - g0x, g1y - g0y) + math.hypot(g2x - g1x, g2y - g1y)
+                    + math.hypot(g3x - g2x, g3y - g2y) + math.hypot(g0x - g3x, g0y - g3y)
+                )  # fmt: skip
                 par = math.hypot(g0x - g1x + g2x - g3x, g0y - g1y + g2y - g3y) / max(sides, 1e-9)
                 if not math.isfinite(par):
                     par = math.inf
-                fits.append((err, par, hmat, dst, src, g))
+                fits.append((err, par, hmat, dst, src, g, mapped))
         if not fits:
             if p.verify:
                 return Rejected("verification", quad.polarity, quad.corners.copy(), lam, "no realization")
@@ -739,11 +745,10 @@ class Detector:
                     )  # fmt: skip
             else:
                 fits = passing
-        _, _, hmat, dst, src, g = min(
+        _, _, hmat, dst, src, gl, mapped = min(
             fits, key=lambda f: f[0] / bound + quad_w * min(f[1], 1e6) / max(p.max_quad_error, 1e-9)
         )
         ordered = corners
-        gl = g.tolist()
         if all(math.isfinite(v) for xy in gl for v in xy):
             gx = sum(x for x, _ in gl) / 4
             gy = sum(y for _, y in gl) / 4
@@ -763,7 +768,7 @@ class Detector:
             model_points=src.copy() if entry.unique_min else None,
             corners=ordered,
             homography=hmat,
-            reprojection_error_px=float(np.linalg.norm(_apply_h(hmat, src) - dst, axis=1).max()),
+            reprojection_error_px=float(np.sqrt(((mapped - dst) ** 2).sum(axis=1)).max()),
             margin_px=margin,
         )
 
@@ -1161,7 +1166,7 @@ def _split_triangles(
     cuts: list[tuple[float, int, int]] = []
     cut_max = max(4.0, 0.2 * math.sqrt(abs(float(cv2.contourArea(c)))))
     if len(far_pts) > 1:
-        uu, vv = np.triu_indices(len(far_pts), 1)
+        uu, vv = _upper_pairs(len(far_pts))
         fi, fj = far_pts[uu], far_pts[vv]
         gap = np.abs(fi - fj)
         pair_d = flat[fi] - flat[fj]
@@ -1175,7 +1180,7 @@ def _split_triangles(
         i = int(far)
         arc = np.abs(idx - i)
         arc = np.minimum(arc, n - arc)
-        dist = np.linalg.norm(flat - flat[i], axis=1)
+        dist = np.hypot(flat[:, 0] - flat[i, 0], flat[:, 1] - flat[i, 1])
         dist[arc < min_sep] = np.inf
         j = int(np.argmin(dist))
         if dist[j] <= 3.0:
@@ -1197,6 +1202,15 @@ def _split_triangles(
                 break
             for right in rights:
                 yield left + right
+
+
+@functools.lru_cache(maxsize=64)
+def _upper_pairs(m: int) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """``np.triu_indices(m, 1)`` (cached: read-only)."""
+    u, v = np.triu_indices(m, 1)
+    u.flags.writeable = False
+    v.flags.writeable = False
+    return u, v
 
 
 def _reflex_corners(pts: NDArray[Any]) -> NDArray[np.int64]:
@@ -1453,10 +1467,11 @@ def _refine_lines(
     """Move each side line to the ``level`` crossings of the grey image along its normals.
 
     The lines are the sides of the triangles ``tri_verts`` ``(T, 3, 2)`` (side j runs from
-    vertex j to j+1), followed, when ``quad`` ``(4, 2)`` is given, by the 4 sides of the
-    data area: one pass (one ``remap``) refines both. Samples 16 positions on the middle 84 %
-    of each side, 13 offsets in ±3 px (bilinear), takes the crossing nearest the line and
-    refits by least squares. Sides with fewer than 3 crossings keep their line.
+    vertex j to j+1; vertex j lies on lines j−1 and j), followed, when ``quad`` ``(4, 2)`` is
+    given, by the 4 sides of the data area through its corners: one pass (one ``remap``)
+    refines both. Samples 16 positions on the middle 84 % of each side, 13 offsets in ±3 px
+    (bilinear), takes the crossing nearest the line and refits by least squares. Sides with
+    fewer than 3 crossings keep their line.
 
     A triangle sample counts only where the shape is wide enough: its distance to every other
     triangle side must be at least ``min(3 px, 0.6 × the side's widest sample)``. Across a
@@ -1472,15 +1487,14 @@ def _refine_lines(
         a = at
         b = at[_next_index(st, 3)]
     s = len(a)
-    finite: NDArray[np.bool_] = np.asarray(np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1), dtype=bool)
-    if not finite.all():
+    finite: NDArray[np.bool_] | bool = True
+    if not np.isfinite(at).all():  # parallel lines: those sides keep their line
+        finite = np.asarray(np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1), dtype=bool)
         a = np.where(finite[:, None], a, 0.0)
         b = np.where(finite[:, None], b, 0.0)
     sd = b - a
+    # sample positions along each side (the vertices lie on their lines: no projection needed)
     base = a[:, None, :] + _REFINE_FR[None, :, None] * sd[:, None, :]  # (S, M, 2)
-    # project base points onto the current lines
-    dist = base @ normal[:, :, None]  # (S, M, 1)
-    base -= (dist - offset[:, None, None]) * normal[:, None, :]
     # distance of every triangle sample to every other triangle side segment
     sdt = sd[:st]
     ln2 = np.maximum((sdt * sdt).sum(axis=1), 1e-12)
@@ -1752,36 +1766,73 @@ def _line_system(lines: list[tuple[_F64, _F64]]) -> _LineSystem | None:
     return _LineSystem(nrm, off, owner, lh, ti_inv)
 
 
-def _homography_lines(src: _F64, system: _LineSystem, rep: NDArray[np.intp]) -> _F64 | None:
-    """Homography mapping each ``src`` point onto the side lines through its detected point.
+@dataclass(frozen=True)
+class _Model:
+    """A stored realization for the homography fit: its points ``(k, 2)`` (tag-plane units),
+    the points normalised to zero mean and mean distance √2 in homogeneous form ``xs``
+    ``(k, 3)``, and the normalising map ``tm`` (3 × 3)."""
 
-    ``rep[l]`` is the index in ``src`` of the model point of line ``l``. Linear least squares
-    (normalised DLT) on the incidences ``l·H·x = 0`` of every model point ``x`` with every
-    image line ``l`` fitted through the detected point; a vertex is thus constrained across
-    each of its sides, where it is measured well, and not along the axis of a sharp tip,
-    where the side lines meet at a small angle. Falls back to None when the system is
-    degenerate.
-    """
+    points: _F64
+    xs: _F64
+    tm: _F64
+
+
+def _model(src: _F64) -> _Model:
+    """Normalise one realization for :func:`_homography_lines` (computed once per ID)."""
     mc = src.mean(axis=0)
     dm = src - mc
     ms = math.sqrt(2.0) / max(float(np.sqrt((dm * dm).sum(axis=1)).mean()), 1e-12)
     xs = np.empty((len(src), 3))
     xs[:, :2] = dm * ms
     xs[:, 2] = 1.0
+    tm = np.array([[ms, 0, -ms * mc[0]], [0, ms, -ms * mc[1]], [0, 0, 1.0]])
+    return _Model(src, xs, tm)
+
+
+def _homography_lines(model: _Model, system: _LineSystem, rep: NDArray[np.intp]) -> _F64 | None:
+    """Homography mapping each model point onto the side lines through its detected point.
+
+    ``rep[l]`` is the index in ``model.points`` of the model point of line ``l``. Linear least
+    squares (normalised DLT) on the incidences ``l·H·x = 0`` of every model point ``x`` with
+    every image line ``l`` fitted through the detected point; a vertex is thus constrained
+    across each of its sides, where it is measured well, and not along the axis of a sharp tip,
+    where the side lines meet at a small angle. Falls back to None when the system is
+    degenerate.
+    """
     lh = system.lh
-    a = (lh[:, :, None] * xs[rep][:, None, :]).reshape(len(lh), 9)
+    a = (lh[:, :, None] * model.xs[rep][:, None, :]).reshape(len(lh), 9)
     try:
         # the least-squares null vector: eigenvector of the smallest eigenvalue of AᵀA (9 × 9;
         # cheaper than the SVD of A, and the normalisation keeps AᵀA well conditioned)
         _, vecs = np.linalg.eigh(a.T @ a)
     except np.linalg.LinAlgError:
         return None
-    hn = vecs[:, 0].reshape(3, 3)
-    tm = np.array([[ms, 0, -ms * mc[0]], [0, ms, -ms * mc[1]], [0, 0, 1.0]])
-    hmat = system.ti_inv @ hn @ tm
+    hmat = system.ti_inv @ vecs[:, 0].reshape(3, 3) @ model.tm
     if not np.isfinite(hmat).all() or abs(hmat[2, 2]) < 1e-12:
         return None
     out: _F64 = hmat / hmat[2, 2]
+    return out
+
+
+def _map_corners_back(hmat: _F64, corners: _F64) -> list[list[float]] | None:
+    """The 4 image ``corners`` mapped to the tag plane by ``hmat``⁻¹ (plain Python: a 3 × 3
+    adjugate and 4 points), or None when ``hmat`` is singular or a corner maps to infinity."""
+    (a, b, c), (d, e, f), (g, h, i) = hmat.tolist()
+    # adjugate = det · inverse; the scale cancels in the projective division
+    inv = (
+        (e * i - f * h, c * h - b * i, b * f - c * e),
+        (f * g - d * i, a * i - c * g, c * d - a * f),
+        (d * h - e * g, b * g - a * h, a * e - b * d),
+    )
+    det = a * inv[0][0] + b * inv[1][0] + c * inv[2][0]
+    if det == 0 or not math.isfinite(det):
+        return None
+    out: list[list[float]] = []
+    for x, y in corners.tolist():
+        w = inv[2][0] * x + inv[2][1] * y + inv[2][2]
+        if w == 0:
+            return None
+        out.append([(inv[0][0] * x + inv[0][1] * y + inv[0][2]) / w, (inv[1][0] * x + inv[1][1] * y + inv[1][2]) / w])
     return out
 
 
@@ -1791,14 +1842,6 @@ def _stack_lines(lines: list[tuple[_F64, _F64]]) -> tuple[_F64, _F64, NDArray[np
     off = np.concatenate([c for _, c in lines])
     rep = np.repeat(np.arange(len(lines)), [len(c) for _, c in lines])
     return nrm, off, rep
-
-
-def _line_error(hmat: _F64, src: _F64, system: _LineSystem, rep: NDArray[np.intp]) -> float:
-    """Largest distance from a mapped model point to a side line through its detected point."""
-    mapped = _apply_h(hmat, src)
-    if not np.isfinite(mapped).all():
-        return math.inf
-    return float(np.abs((system.nrm * mapped[rep]).sum(axis=1) - system.off).max())
 
 
 def _apply_h(hmat: _F64, pts: _F64) -> _F64:
