@@ -7,8 +7,12 @@ import math
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from ottag_db.decoder import REJECTION_REASONS, Detection, Detector, Rejected, to_gray
+from ottag_db.canonical import canonical_orderings
+from ottag_db.decoder import REJECTION_REASONS, Detection, Detector, Rejected, _read_orderings, to_gray
+from ottag_db.geometry import maximal_perturbation
 from ottag_db.errors import DecodeError, OttagError, UsageError
 from ottag_db.lookup import MemoryLookup
 from tests import tagsynth as ts
@@ -334,3 +338,22 @@ def test_half_resolution_candidate_search_matches_full_resolution(reference):
             assert np.abs(da.points - db.points).max() < 0.3
         decoded += len(a) == 1 and a[0].lambda_ == rec["lambda"]
     assert decoded >= 11
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.integers(3, 8).flatmap(
+        lambda k: st.lists(
+            st.tuples(st.integers(0, 639), st.integers(0, 479)), min_size=k, max_size=k, unique=True
+        )
+    )
+)
+def test_read_orderings_match_the_canonical_module(points) -> None:
+    """The decoder's single-set orderings (shared with its margin) equal the batched core's."""
+    pts = np.array(points, dtype=np.float64)
+    margin, orderings = _read_orderings(pts)
+    assert margin == pytest.approx(2 * maximal_perturbation(pts))
+    if margin > 0:
+        expected = canonical_orderings(pts)
+        assert [lab for lab, _ in orderings] == [lab for lab, _ in expected]
+        assert all(np.array_equal(a, b) for (_, a), (_, b) in zip(orderings, expected, strict=True))
