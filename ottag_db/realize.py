@@ -93,9 +93,7 @@ def default_effort(k: int) -> RealizeEffort:
     budget is a few SLSQP runs each (multi-starts rarely change the optimum there).
     """
     if k <= 7:
-        return RealizeEffort(
-            starts=8, hops=16, roundings=64, searched_roundings=6, hard_below=np.inf, exact_variants=4
-        )
+        return RealizeEffort(starts=8, hops=16, roundings=64, searched_roundings=6, hard_below=np.inf, exact_variants=4)
     return RealizeEffort(starts=3, hops=0, hard_below=2.3, exact_variants=4)
 
 
