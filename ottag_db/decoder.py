@@ -980,12 +980,12 @@ def _triangle_fit_parts(pts: NDArray[Any]) -> tuple[list[NDArray[np.float64]], _
         core = seg[trim : m - trim]
         # distance of the chain (without its ends) to the line fitted to its core
         t10 = max(1, int(0.1 * m))
-        cx, cy = (core.sum(axis=0) / len(core)).tolist()
-        dc = core - (cx, cy)
-        (sxx, sxy), (_, syy) = (dc.T @ dc).tolist()
-        theta = 0.5 * math.atan2(2 * sxy, sxx - syy)
+        # PCA line of the core from raw moments (pixel coordinates: no loss of precision)
+        (sx_, sy_), ((gxx, gxy), (_, gyy)) = core.sum(axis=0).tolist(), (core.T @ core).tolist()
+        cx, cy = sx_ / len(core), sy_ / len(core)
+        theta = 0.5 * math.atan2(2 * (gxy - sx_ * cy), (gxx - sx_ * cx) - (gyy - sy_ * cy))
         nx, ny = -math.sin(theta), math.cos(theta)
-        dist = np.abs(seg[t10 : m - t10] @ (nx, ny) - (nx * cx + ny * cy))
+        dist = np.abs(seg[t10 : m - t10] @ np.array((nx, ny)) - (nx * cx + ny * cy))
         far += int(np.count_nonzero(dist > 1.0 + 0.015 * ln))
         chains.append(core)
     if far > max(2, 0.05 * n):
