@@ -32,7 +32,6 @@ def make_scenes(frames: int) -> tuple[object, list[np.ndarray], list[np.ndarray]
     lookup, records = ts.reference_lookup(folder)
     recs = [r for r in records if r["k"] == 8]
     rng = np.random.default_rng(7)
-    k_mat = ts.camera_matrix()
     dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
     marker = cv2.aruco.generateImageMarker(dictionary, 5, 400)
     marker = cv2.copyMakeBorder(marker, 100, 100, 100, 100, cv2.BORDER_CONSTANT, value=255)
@@ -44,11 +43,10 @@ def make_scenes(frames: int) -> tuple[object, list[np.ndarray], list[np.ndarray]
         if ts.min_width_px(dr.mp_unit) > 180:
             continue
         width = rng.uniform(max(90.0, ts.min_width_px(dr.mp_unit)), 200)
-        r_mat, t = ts.random_pose(rng, k_mat, 0.1, width, rng.uniform(0, 45), (320, 240))
-        hom = ts.pose_homography(k_mat, r_mat, t, 0.1)
+        spec = ts.posed_spec(rec, rng, width, rng.uniform(0, 45), cache=cache)
+        hom = spec.homography
         cond = {"blur": rng.uniform(0, 1), "noise": rng.uniform(0, 4), "gradient": rng.uniform(0, 0.4), "jpeg": 80}
         seed = int(rng.integers(1 << 30))
-        spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, hom, placement=dr.placement)
         ours_imgs.append(ts.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image)
         hom_m = hom @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
         aruco_imgs.append(

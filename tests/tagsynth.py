@@ -386,6 +386,24 @@ def drawable(rec: dict[str, object], cache: dict[bytes, Drawable]) -> Drawable:
     return cache[key]
 
 
+def posed_spec(
+    rec: dict[str, object],
+    rng: np.random.Generator,
+    width_px: float,
+    tilt_deg: float,
+    polarity: str = "normal",
+    cache: dict[bytes, Drawable] | None = None,
+    center_px: tuple[float, float] = (320, 240),
+) -> TagSpec:
+    """A record drawn the project's way (layout, placement) at a random pose of the 640×480
+    camera (f = 700): data area ``width_px`` wide frontally, tilted by ``tilt_deg``."""
+    dr = drawable(rec, {} if cache is None else cache)
+    k_mat = camera_matrix()
+    r_mat, t = random_pose(rng, k_mat, 0.1, width_px, tilt_deg, center_px)
+    hom = pose_homography(k_mat, r_mat, t, 0.1)
+    return TagSpec(np.asarray(rec["points"]), dr.triangles, hom, polarity, placement=dr.placement)
+
+
 def min_width_px(mp_unit: float) -> float:
     """Smallest frontal data-area width (px) used for a tag whose placed MP is ``mp_unit``.
 

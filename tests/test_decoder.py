@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -12,8 +13,8 @@ from hypothesis import strategies as st
 
 from ottag_db.canonical import canonical_orderings
 from ottag_db.decoder import REJECTION_REASONS, Detection, Detector, Rejected, _read_orderings, to_gray
-from ottag_db.geometry import maximal_perturbation
 from ottag_db.errors import DecodeError, OttagError, UsageError
+from ottag_db.geometry import maximal_perturbation
 from ottag_db.lookup import MemoryLookup
 from tests import tagsynth as ts
 
@@ -93,14 +94,11 @@ def test_decode_rate_target(positive_run):
 def test_points_and_corners_order(reference):
     lookup, records = reference
     rec = next(r for r in records if r["k"] == 7 and lookup.get(r["lambda"]).unique_min)  # type: ignore[union-attr]
-    cache: dict[bytes, ts.Drawable] = {}
-    dr = ts.drawable(rec, cache)
-    k_mat = ts.camera_matrix()
     rng = np.random.default_rng(1)
-    r_mat, t = ts.random_pose(rng, k_mat, 0.1, 220, 35, (320, 240))
-    hom = ts.pose_homography(k_mat, r_mat, t, 0.1)
+    posed = ts.posed_spec(rec, rng, 220, 35)
+    hom = posed.homography
     for pol in ("normal", "inverted"):
-        spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, hom, pol, placement=dr.placement)
+        spec = replace(posed, polarity=pol)
         scene = ts.render_scene((480, 640), [spec], rng, blur=0.7, noise=2)
         dets, rejected = Detector(lookup).detect_with_rejections(scene.image)
         assert len(dets) == 1
@@ -120,13 +118,8 @@ def test_points_and_corners_order(reference):
 def test_options_verify_and_unknown(reference):
     lookup, records = reference
     rec = next(r for r in records if r["k"] == 6)
-    cache: dict[bytes, ts.Drawable] = {}
-    dr = ts.drawable(rec, cache)
-    k_mat = ts.camera_matrix()
     rng = np.random.default_rng(2)
-    r_mat, t = ts.random_pose(rng, k_mat, 0.1, 200, 20, (320, 240))
-    spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, ts.pose_homography(k_mat, r_mat, t, 0.1),
-                      placement=dr.placement)  # fmt: skip
+    spec = ts.posed_spec(rec, rng, 200, 20)
     image = ts.render_scene((480, 640), [spec], rng, blur=0.5).image
     # order type missing from the lookup: rejected, or reported without ids with allow_unknown
     others = MemoryLookup(e for e in lookup if e.lambda_text != rec["lambda"])  # type: ignore[attr-defined]
@@ -159,19 +152,12 @@ def test_dictionary_polarity(reference):
     rec = next(r for r in records if r["k"] == 7)
     entry = lookup.get(rec["lambda"])
     assert entry is not None
-    cache: dict[bytes, ts.Drawable] = {}
-    dr = ts.drawable(rec, cache)
-    k_mat = ts.camera_matrix()
     rng = np.random.default_rng(3)
-    r_mat, t = ts.random_pose(rng, k_mat, 0.1, 200, 25, (320, 240))
-    hom = ts.pose_homography(k_mat, r_mat, t, 0.1)
+    posed = ts.posed_spec(rec, rng, 200, 25)
     images = {
-        pol: ts.render_scene(
-            (480, 640), [ts.TagSpec(np.asarray(rec["points"]), dr.triangles, hom, pol, placement=dr.placement)],
-            rng, blur=0.5, noise=2,
-        ).image
+        pol: ts.render_scene((480, 640), [replace(posed, polarity=pol)], rng, blur=0.5, noise=2).image
         for pol in ("normal", "inverted")
-    }  # fmt: skip
+    }
 
     def member(tags: dict[str, int]) -> MemoryLookup:
         return MemoryLookup([LookupEntry(entry.lambda_text, entry.k, entry.order_type_id, entry.unique_min,
@@ -275,13 +261,8 @@ def test_to_gray_conversions():
 def test_sixteen_bit_and_rgba_decode(reference):
     lookup, records = reference
     rec = next(r for r in records if r["k"] == 8)
-    cache: dict[bytes, ts.Drawable] = {}
-    dr = ts.drawable(rec, cache)
-    k_mat = ts.camera_matrix()
     rng = np.random.default_rng(5)
-    r_mat, t = ts.random_pose(rng, k_mat, 0.1, 260, 15, (320, 240))
-    spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, ts.pose_homography(k_mat, r_mat, t, 0.1),
-                      placement=dr.placement)  # fmt: skip
+    spec = ts.posed_spec(rec, rng, 260, 15)
     image = ts.render_scene((480, 640), [spec], rng, blur=0.5).image
     det = Detector(lookup)
     expect = [d.lambda_ for d in det.detect(image)]
@@ -318,7 +299,6 @@ def test_half_resolution_candidate_search_matches_full_resolution(reference):
     tags (data area ~50–70 px) decode as with the full-resolution search (explicit window)."""
     lookup, records = reference
     cache: dict[bytes, ts.Drawable] = {}
-    k_mat = ts.camera_matrix()
     rng = np.random.default_rng(11)
     half, full = Detector(lookup), Detector(lookup, adaptive_block=31)
     recs = [r for r in records if r["k"] in (5, 6) and ts.min_width_px(ts.drawable(r, cache).mp_unit) <= 60]
@@ -327,10 +307,7 @@ def test_half_resolution_candidate_search_matches_full_resolution(reference):
         rec = recs[n % len(recs)]
         dr = ts.drawable(rec, cache)
         width = float(rng.uniform(ts.min_width_px(dr.mp_unit), 70))
-        r_mat, t = ts.random_pose(rng, k_mat, 0.1, width, float(rng.uniform(0, 35)), (320, 240))
-        hom = ts.pose_homography(k_mat, r_mat, t, 0.1)
-        pol = ("normal", "inverted")[n % 2]
-        spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, hom, pol, placement=dr.placement)
+        spec = ts.posed_spec(rec, rng, width, float(rng.uniform(0, 35)), ("normal", "inverted")[n % 2], cache)
         image = ts.render_scene((480, 640), [spec], rng, blur=0.5, noise=2).image
         a, b = half.detect(image), full.detect(image)
         assert [d.lambda_ for d in a] == [d.lambda_ for d in b]
