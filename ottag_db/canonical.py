@@ -18,6 +18,7 @@ __all__ = [
     "canonical_lambda",
     "canonical_orderings",
     "canonicalize_lambdas",
+    "lambda_orderings",
     "lambda_text",
     "lambda_texts",
     "mirror_lambdas",
@@ -167,14 +168,26 @@ def canonical_orderings(points: ArrayLike) -> list[tuple[tuple[int, ...], NDArra
     Each item is ``(labeling, matrix)`` where ``labeling[l]`` is the input index of the
     point with label ``l``.
     """
-    lam = lambda_matrices(np.asarray(points)[None])
-    perms, on_hull = _orderings_from_lambdas(lam)
-    out: list[tuple[tuple[int, ...], NDArray[np.int8]]] = []
-    for h in np.flatnonzero(on_hull[0]):
-        perm = perms[0, h]
-        out.append((tuple(int(v) for v in perm), lam[0][np.ix_(perm, perm)]))
-    out.sort(key=lambda item: item[1].ravel().tolist())
-    return out
+    return lambda_orderings(lambda_matrices(np.asarray(points)[None])[0])
+
+
+def lambda_orderings(lam: NDArray[np.integer]) -> list[tuple[tuple[int, ...], NDArray[np.int8]]]:
+    """:func:`canonical_orderings` of one ``(n, n)`` λ-matrix of a set in general position.
+
+    A single-set path (no batch set-up): from hull vertex ``h`` point ``j`` gets label
+    ``n − 1 − λ(h, j)`` (see :func:`_orderings_from_lambdas`); ties keep hull-vertex order.
+    """
+    lam = np.asarray(lam, dtype=np.int64)
+    n = lam.shape[0]
+    hull = np.flatnonzero((lam == n - 2).any(axis=1))
+    pos = (n - 1) - lam[hull]
+    pos[np.arange(len(hull)), hull] = 0
+    perms = np.zeros((len(hull), n), dtype=np.int64)
+    np.put_along_axis(perms, pos, np.broadcast_to(np.arange(n), pos.shape), axis=1)
+    mats = lam[perms[:, :, None], perms[:, None, :]].astype(np.int8)
+    keys = [m.tobytes() for m in mats]  # entries 0 … n−2: byte order is lexicographic order
+    order = sorted(range(len(hull)), key=keys.__getitem__)
+    return [(tuple(perms[o].tolist()), mats[o]) for o in order]
 
 
 def mirror_lambdas(lam: NDArray[np.integer]) -> NDArray[np.int8]:

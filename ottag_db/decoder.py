@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .canonical import lambda_text
+from .canonical import lambda_orderings, lambda_text
 from .errors import DecodeError, UsageError
 from .lookup import LookupEntry, TagLookup
 
@@ -1707,9 +1707,7 @@ def _cross_table(pts: _F64) -> tuple[_F64, float]:
 def _read_orderings(pts: _F64) -> tuple[float, list[tuple[tuple[int, ...], NDArray[np.int8]]]]:
     """Margin (px) and the canonical orderings of one detected point set, smallest λ first.
 
-    The single-set equivalent of :func:`~ottag_db.canonical.canonical_orderings` (same
-    orientation convention and labels) sharing one orientation table with the margin: the
-    batched core pays array set-up costs that dominate for one set of ≤ 8 points.
+    λ comes from the orientation table the margin is computed from (one table for both).
     """
     k = len(pts)
     cross, margin = _cross_table(pts)
@@ -1720,16 +1718,7 @@ def _read_orderings(pts: _F64) -> tuple[float, list[tuple[tuple[int, ...], NDArr
     lam = np.zeros((k, k), dtype=np.int64)
     lam[i, j] = left
     lam[j, i] = k - 2 - left
-    hull = np.flatnonzero((lam == k - 2).any(axis=1))
-    # from hull vertex h, point j gets label k − 1 − λ(h, j) (see canonical._orderings_from_lambdas)
-    pos = (k - 1) - lam[hull]
-    pos[np.arange(len(hull)), hull] = 0
-    perms = np.zeros((len(hull), k), dtype=np.int64)
-    np.put_along_axis(perms, pos, np.broadcast_to(np.arange(k), pos.shape), axis=1)
-    mats = lam[perms[:, :, None], perms[:, None, :]].astype(np.int8)
-    keys = [m.tobytes() for m in mats]
-    order = sorted(range(len(hull)), key=keys.__getitem__)
-    return margin, [(tuple(perms[o].tolist()), mats[o]) for o in order]
+    return margin, lambda_orderings(lam)
 
 
 @dataclass(frozen=True)

@@ -78,6 +78,18 @@ def test_labeling_reproduces_the_canonical_matrix(reference_sets: dict[int, np.n
     assert np.array_equal(relabeled, batch.lambdas)
 
 
+def test_single_set_orderings_agree_with_the_batch(reference_sets: dict[int, np.ndarray]) -> None:
+    """canonical_orderings (single-set path): its smallest matrix and the number of orderings
+    reaching it equal the batched canonicalization's, for every 7-point reference set."""
+    pts = reference_sets[7]
+    batch = canonical_batch(pts)
+    for b in range(len(pts)):
+        orderings = canonical_orderings(pts[b])
+        assert np.array_equal(orderings[0][1], batch.lambdas[b])
+        assert sum(np.array_equal(m, orderings[0][1]) for _, m in orderings) == batch.minimal_orderings[b]
+        assert len(orderings) == batch.hull_sizes[b]
+
+
 # ----------------------------------------------------------------------------- invariance
 def _base_sets() -> list[np.ndarray]:
     # Hand-made sets in general position with several hull sizes and symmetries.

@@ -326,7 +326,8 @@ def test_half_resolution_candidate_search_matches_full_resolution(reference):
     )
 )
 def test_read_orderings_match_the_canonical_module(points) -> None:
-    """The decoder's single-set orderings (shared with its margin) equal the batched core's."""
+    """The decoder's λ (from the orientation table of its margin) and orderings equal the
+    canonical module's, and its margin is twice the geometry core's MP."""
     pts = np.array(points, dtype=np.float64)
     margin, orderings = _read_orderings(pts)
     assert margin == pytest.approx(2 * maximal_perturbation(pts))
