@@ -1683,11 +1683,10 @@ def _margin(pts: _F64) -> float:
 def _pair_tables(k: int) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
     """Pairs ``i < j`` of ``k`` points and the mask of (pair, point) entries where the point is
     one of the pair (cached: read-only)."""
-    i, j = np.triu_indices(k, 1)
+    i, j = _upper_pairs(k)
     idx = np.arange(k)
     own = (idx[None, :] == i[:, None]) | (idx[None, :] == j[:, None])
-    for arr in (i, j, own):
-        arr.flags.writeable = False
+    own.flags.writeable = False
     return i, j, own
 
 
