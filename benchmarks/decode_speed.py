@@ -10,6 +10,7 @@ data-area size. Prints ms/frame for both detectors and the ratio (target ≤ 1.0
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from collections.abc import Callable
@@ -101,6 +102,12 @@ def main(frames: int = 100, passes: int = 5) -> None:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) > 2:
-        cv2.setNumThreads(int(sys.argv[2]))
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 100)
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("frames", type=int, nargs="?", default=100, help="scenes per detector (default 100)")
+    parser.add_argument("cv2_threads", type=int, nargs="?", default=None, help="OpenCV's default thread count")
+    args = parser.parse_args()
+    if args.frames < 1:
+        parser.error("frames must be at least 1")
+    if args.cv2_threads is not None:
+        cv2.setNumThreads(args.cv2_threads)
+    main(args.frames)

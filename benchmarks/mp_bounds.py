@@ -28,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ottag_db import realize
 from ottag_db.canonical import canonical_batch
+from ottag_db.errors import OttagError
 from ottag_db.geometry import maximal_perturbations
 from ottag_db.pointfile import read_point_file
 
@@ -53,7 +54,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1, help="another seed than the bundled data's (0)")
     args = parser.parse_args(argv)
     for k in args.k:
-        pts = read_point_file(args.data_dir / f"ottag-k{k:02d}.b08", k)
+        try:
+            pts = read_point_file(args.data_dir / f"ottag-k{k:02d}.b08", k)
+        except OttagError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 1
         mps = maximal_perturbations(pts)
         cut = max(TARGETS[k])
         idx = np.flatnonzero(mps < cut)
