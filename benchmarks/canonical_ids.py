@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ottag_db.canonical import canonical_batch
-from ottag_db.geometry import general_position_mask
-from ottag_db.pointfile import inspect_point_file, iter_point_chunks, write_point_file
+from ottag_db.core.canonical import canonical_batch
+from ottag_db.core.geometry import general_position_mask
+from ottag_db.files.pointfile import inspect_point_file, iter_point_chunks, write_point_file
 
 
 def make_file(path: Path, n: int, records: int, seed: int) -> None:

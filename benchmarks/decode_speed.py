@@ -21,8 +21,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ottag_db.decoder import Detector
-from tests import tagsynth as ts
+from ottag_db.decode.detector import Detector
+from tests.support import tagsynth as ts
 
 
 def make_scenes(frames: int) -> tuple[object, list[np.ndarray], list[np.ndarray]]:

@@ -26,12 +26,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ottag_db.db import open_database
-from ottag_db.decoder import Detector
-from ottag_db.dictionary import DictionaryOptions, create_dictionary, dictionary_lookup
-from ottag_db.importer import import_point_file
-from ottag_db.layout import compute_layout
-from ottag_db.render import build_tag_geometry, raster_positions, render_raster
+from ottag_db.core.layout import compute_layout
+from ottag_db.decode.detector import Detector
+from ottag_db.printing.render import build_tag_geometry, raster_positions, render_raster
+from ottag_db.store.db import open_database
+from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary, dictionary_lookup
+from ottag_db.store.importer import import_point_file
 
 
 def build_db(folder: Path, ks: tuple[int, ...]) -> Path:
@@ -42,7 +42,7 @@ def build_db(folder: Path, ks: tuple[int, ...]) -> Path:
         if ref and Path(ref, "otypes08.b08").exists():
             files = [(Path(ref) / f"otypes{k:02d}.b08", None) for k in range(3, 9)]
         else:
-            from ottag_db.bundled import bundled_point_files
+            from ottag_db.files.bundled import bundled_point_files
 
             files = [(p, k) for p, k in bundled_point_files()]
         for p, k in files:

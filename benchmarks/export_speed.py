@@ -16,8 +16,8 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from ottag_db.cli import cli
-from ottag_db.db import open_database
-from ottag_db.tags import ensure_layouts
+from ottag_db.store.db import open_database
+from ottag_db.store.tags import ensure_layouts
 
 
 def main() -> None:

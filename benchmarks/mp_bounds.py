@@ -26,11 +26,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ottag_db import realize
-from ottag_db.canonical import canonical_batch
+from ottag_db.core.canonical import canonical_batch
+from ottag_db.core.geometry import maximal_perturbations
 from ottag_db.errors import OttagError
-from ottag_db.geometry import maximal_perturbations
-from ottag_db.pointfile import read_point_file
+from ottag_db.files.pointfile import read_point_file
+from ottag_db.generation import realize
 
 #: The targets of issue #3: k → the MP thresholds that must hold for every set / many sets.
 TARGETS: dict[int, tuple[float, ...]] = {7: (4.0, 6.0), 8: (2.0,)}

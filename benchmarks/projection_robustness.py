@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ottag_db.canonical import canonical_batch
-from ottag_db.pointfile import read_point_file
+from ottag_db.core.canonical import canonical_batch
+from ottag_db.files.pointfile import read_point_file
 
 __all__ = [
     "PAPER_TABLE5",

@@ -1,11 +1,11 @@
-"""Alembic environment: runs on a connection handed over by ottag_db.db, or on the configured URL."""
+"""Alembic environment: runs on a connection handed over by ottag_db.store.db, or on the configured URL."""
 
 from __future__ import annotations
 
 from alembic import context
 from sqlalchemy import engine_from_config, pool
 
-from ottag_db.models import Base
+from ottag_db.store.models import Base
 
 config = context.config
 target_metadata = Base.metadata

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .canonical import (
+from ottag_db.app.export import TagFilter, export_sheet, render_tag
+from ottag_db.core.canonical import (
     CanonicalBatch,
     CanonicalForm,
     canonical_batch,
@@ -19,18 +20,24 @@ from .canonical import (
     parse_lambda_text,
     relabel_lambda,
 )
-from .db import Database, head_revision, open_database
-from .decoder import Detection, Detector, DetectorParams, Rejected
-from .dictionary import (
-    DictionaryInfo,
-    DictionaryOptions,
-    create_dictionary,
-    dictionary_lookup,
-    export_dictionary,
-    get_dictionary,
-    import_dictionary,
+from ottag_db.core.flips import FlipEdge, flip_neighbours
+from ottag_db.core.geometry import (
+    check_general_position,
+    general_position_mask,
+    hull_size,
+    hull_sizes,
+    lambda_matrices,
+    lambda_matrix,
+    maximal_perturbation,
+    maximal_perturbations,
+    orientation_tensor,
 )
-from .errors import (
+from ottag_db.core.layout import Layout, compute_layout, compute_layouts, validate_layout
+from ottag_db.core.lookup import LookupEntry, MemoryLookup, TagLookup
+from ottag_db.core.placement import tag_placement
+from ottag_db.decode.detector import Detection, Detector, DetectorParams, Rejected
+from ottag_db.decode.pose import Pose, estimate_pose
+from ottag_db.errors import (
     DatabaseError,
     DecodeError,
     DictionaryError,
@@ -42,24 +49,7 @@ from .errors import (
     PointFileError,
     UsageError,
 )
-from .export import TagFilter, export_sheet, render_tag
-from .flipgraph import FlipEdge, flip_neighbours
-from .generate import generate_database
-from .geometry import (
-    check_general_position,
-    general_position_mask,
-    hull_size,
-    hull_sizes,
-    lambda_matrices,
-    lambda_matrix,
-    maximal_perturbation,
-    maximal_perturbations,
-    orientation_tensor,
-)
-from .importer import ImportReport, import_point_file, import_point_files
-from .layout import Layout, compute_layout, compute_layouts, validate_layout
-from .lookup import LookupEntry, MemoryLookup, TagLookup
-from .pointfile import (
+from ottag_db.files.pointfile import (
     OFFICIAL_RECORD_COUNTS,
     PointFileInfo,
     inspect_point_file,
@@ -67,8 +57,22 @@ from .pointfile import (
     read_point_file,
     write_point_file,
 )
-from .pose import Pose, estimate_pose
-from .queries import (
+from ottag_db.generation.enumeration import generate_database
+from ottag_db.generation.realize import maximize_mp
+from ottag_db.printing.render import TagGeometry, build_tag_geometry, render_raster, render_svg
+from ottag_db.printing.sheet import SheetOptions, SheetTag, write_tag_sheet
+from ottag_db.store.db import Database, head_revision, open_database
+from ottag_db.store.dictionaries import (
+    DictionaryInfo,
+    DictionaryOptions,
+    create_dictionary,
+    dictionary_lookup,
+    export_dictionary,
+    get_dictionary,
+    import_dictionary,
+)
+from ottag_db.store.importer import ImportReport, import_point_file, import_point_files
+from ottag_db.store.queries import (
     MP_THRESHOLDS,
     IdResult,
     KStats,
@@ -79,10 +83,7 @@ from .queries import (
     identify_points,
     list_order_types,
 )
-from .realize import maximize_mp
-from .render import TagGeometry, build_tag_geometry, render_raster, render_svg, tag_placement
-from .sheet import SheetOptions, SheetTag, write_tag_sheet
-from .tags import TagRecord, ensure_layouts, load_lookup, select_tags
+from ottag_db.store.tags import TagRecord, ensure_layouts, load_lookup, select_tags
 
 __all__ = [
     "MP_THRESHOLDS",

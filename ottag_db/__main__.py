@@ -1,5 +1,5 @@
 """``python -m ottag_db`` runs the command line."""
 
-from .cli import main
+from ottag_db.cli import main
 
 main()

@@ -13,11 +13,11 @@ from typing import Any, TypeVar
 
 import click
 
-from . import __version__
-from .db import Database, head_revision, open_database
-from .errors import OttagError
-from .importer import ImportReport, import_point_file
-from .queries import (
+from ottag_db import __version__
+from ottag_db.errors import OttagError
+from ottag_db.store.db import Database, head_revision, open_database
+from ottag_db.store.importer import ImportReport, import_point_file
+from ottag_db.store.queries import (
     MP_THRESHOLDS,
     KStats,
     OrderTypeSummary,
@@ -154,7 +154,7 @@ def import_cmd(
     Each file is one transaction: a failure leaves the database as it was. Importing a file
     again is a no-op.
     """
-    from .bundled import bundled_point_files
+    from ottag_db.files.bundled import bundled_point_files
 
     jobs: list[tuple[Path, int | None]] = [(p, n) for p in files]
     mirrors = with_mirrors
@@ -419,7 +419,7 @@ def generate_cmd(max_k: int, out_dir: Path, seed: int, jobs: int, quiet: bool) -
     Writes one set per reflection pair (drop-in replacements of Aichholzer's otypesNN.b08)
     plus a manifest; `ottag-db import OUT/ottag-kNN.b08 --with-mirrors` loads them.
     """
-    from .generate import generate_database
+    from ottag_db.generation.enumeration import generate_database
 
     bar = _StageProgress(quiet)
     try:
@@ -487,8 +487,8 @@ def export_cmd(
     Tag size is the side of the black data area. Print at 100 % scale and check the 100 mm
     ruler on every page.
     """
-    from .export import TagFilter, export_sheet
-    from .sheet import SheetOptions, parse_length, parse_page
+    from ottag_db.app.export import TagFilter, export_sheet
+    from ottag_db.printing.sheet import SheetOptions, parse_length, parse_page
 
     options = SheetOptions(
         tag_size_mm=parse_length(tag_size),
@@ -524,7 +524,7 @@ def render_cmd(ident: str, out: Path, px: int, polarity: str, db_target: str | N
 
     SVG is in mm with a 50 mm data area (the side of the black square).
     """
-    from .export import render_tag
+    from ottag_db.app.export import render_tag
 
     with _database(db_target, quiet) as db:
         geom = render_tag(db, ident, out, px=px, polarity=polarity)
@@ -567,12 +567,12 @@ def decode_cmd(
     quiet: bool,
 ) -> None:
     """Find Order Type Tags in IMAGE files; print IDs, points, corners, homography (and pose)."""
-    from .decode_io import decode_file, load_camera
-    from .decoder import Detector
-    from .dictionary import dictionary_lookup, neighbour_members
-    from .errors import UsageError
-    from .queries import order_type_numbers
-    from .sheet import parse_length
+    from ottag_db.app.decoding import decode_file, load_camera
+    from ottag_db.decode.detector import Detector
+    from ottag_db.errors import UsageError
+    from ottag_db.printing.sheet import parse_length
+    from ottag_db.store.dictionaries import dictionary_lookup, neighbour_members
+    from ottag_db.store.queries import order_type_numbers
 
     if (camera is None) != (tag_size is None):
         raise UsageError("--camera and --tag-size go together (pose needs both)")
@@ -650,8 +650,8 @@ def dictionary_create(
     quiet: bool,
 ) -> None:
     """Create dictionary NAME: greedy by MP (highest first), then k and λ; tags numbered 0 … N−1."""
-    from .dictionary import DictionaryOptions, create_dictionary
-    from .numbering import COMPLETE_COUNTS
+    from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary
+    from ottag_db.store.numbering import COMPLETE_COUNTS
 
     opts = DictionaryOptions(
         ks=ks,
@@ -678,7 +678,7 @@ def dictionary_create(
 @_quiet_option
 def dictionary_list(db_target: str | None, quiet: bool) -> None:
     """List dictionaries."""
-    from .dictionary import list_dictionaries
+    from ottag_db.store.dictionaries import list_dictionaries
 
     with _database(db_target, quiet) as db:
         rows = list_dictionaries(db)
@@ -693,7 +693,7 @@ def dictionary_list(db_target: str | None, quiet: bool) -> None:
 @_quiet_option
 def dictionary_show(name: str, db_target: str | None, quiet: bool) -> None:
     """Show a dictionary's members."""
-    from .dictionary import get_dictionary
+    from ottag_db.store.dictionaries import get_dictionary
 
     with _database(db_target, quiet) as db:
         info = get_dictionary(db, name)
@@ -711,7 +711,7 @@ def dictionary_show(name: str, db_target: str | None, quiet: bool) -> None:
 @_quiet_option
 def dictionary_delete(name: str, db_target: str | None, quiet: bool) -> None:
     """Delete a dictionary."""
-    from .dictionary import delete_dictionary
+    from ottag_db.store.dictionaries import delete_dictionary
 
     with _database(db_target, quiet) as db:
         n = delete_dictionary(db, name)
@@ -726,7 +726,7 @@ def dictionary_delete(name: str, db_target: str | None, quiet: bool) -> None:
 @_quiet_option
 def dictionary_export(name: str, fmt: str, output: Path | None, db_target: str | None, quiet: bool) -> None:
     """Export a dictionary (everything another implementation needs) as JSON or CSV."""
-    from .dictionary import export_dictionary
+    from ottag_db.store.dictionaries import export_dictionary
 
     with _database(db_target, quiet) as db:
         text = export_dictionary(db, name, fmt)
@@ -747,8 +747,8 @@ def dictionary_export(name: str, fmt: str, output: Path | None, db_target: str |
 @_quiet_option
 def dictionary_import(file: Path, name: str | None, db_target: str | None, quiet: bool) -> None:
     """Import a dictionary from its JSON export (its order types must be in the database)."""
-    from .dictionary import import_dictionary
-    from .errors import DictionaryError
+    from ottag_db.errors import DictionaryError
+    from ottag_db.store.dictionaries import import_dictionary
 
     try:
         text = file.read_text(encoding="utf-8")

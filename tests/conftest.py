@@ -1,9 +1,14 @@
-"""Shared fixtures: the reference files from $OTTAG_AICHHOLZER_DIR and a database built from them."""
+"""Shared fixtures: the bundled order-type data and, as an extra layer, Aichholzer's reference files.
+
+Every test that can run on the bundled data does (its IDs equal the reference files'): use
+``bundled_sets`` / ``bundled_db_path``. The reference files are read from
+``$OTTAG_AICHHOLZER_DIR`` by ``otdb_dir`` / ``reference_sets`` / ``reference_db_path`` /
+``mirrors_db_path``, which skip when it is not set.
+"""
 
 from __future__ import annotations
 
 import os
-import sqlite3
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -11,21 +16,10 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from ottag_db.db import Database, open_database
-from ottag_db.importer import import_point_file
-from ottag_db.pointfile import read_point_file
-
-FIG4 = [[206, 159], [214, 127], [176, 49], [42, 144], [47, 175], [129, 178], [149, 206]]
-FIG8 = [[0, 0], [69, 255], [149, 116], [138, 72], [255, 69]]
-TABLE9 = [
-    [0, 5, 4, 3, 2, 1, 0],
-    [0, 0, 2, 5, 4, 3, 1],
-    [1, 3, 0, 4, 3, 2, 2],
-    [2, 0, 1, 0, 5, 4, 3],
-    [3, 1, 2, 0, 0, 5, 4],
-    [4, 2, 3, 1, 0, 0, 5],
-    [5, 4, 3, 2, 1, 0, 0],
-]
+from ottag_db.files.bundled import bundled_point_files
+from ottag_db.files.pointfile import read_point_file
+from ottag_db.store.db import Database, open_database
+from ottag_db.store.importer import import_point_file
 
 
 def _otdb() -> Path | None:
@@ -48,6 +42,29 @@ def reference_sets(otdb_dir: Path) -> dict[int, np.ndarray]:
     return {k: read_point_file(otdb_dir / f"otypes{k:02d}.b08") for k in range(3, 9)}
 
 
+@pytest.fixture(scope="session")
+def bundled_sets() -> dict[int, np.ndarray]:
+    """Bundled point sets per k (3 … 8), one per reflection pair, as (records, k, 2) int64 arrays.
+
+    The same order types (and so the same IDs) as the reference files, other coordinates.
+    """
+    return {k: read_point_file(path) for path, k in bundled_point_files()}
+
+
+@pytest.fixture(scope="session")
+def bundled_db_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A database file with the bundled data imported as ``ottag-db import`` does (mirrors
+    included: every order type of 3 … 8 points). Copy before mutating."""
+    path = tmp_path_factory.mktemp("bundleddb") / "bundled.sqlite"
+    db = open_database(path)
+    try:
+        for file, _k in bundled_point_files():
+            import_point_file(db, file, with_mirrors=True)
+    finally:
+        db.close()
+    return path
+
+
 def build_reference_db(path: Path, otdb: Path, *, with_mirrors: bool) -> Path:
     """Import otypes03 … otypes08 into a new database at ``path``."""
     db = open_database(path)
@@ -57,15 +74,6 @@ def build_reference_db(path: Path, otdb: Path, *, with_mirrors: bool) -> Path:
     finally:
         db.close()
     return path
-
-
-def dump_database(path: Path) -> list[str]:
-    """The SQL dump of a SQLite file: equal dumps mean an unchanged database."""
-    con = sqlite3.connect(path)
-    try:
-        return list(con.iterdump())
-    finally:
-        con.close()
 
 
 @pytest.fixture(scope="session")

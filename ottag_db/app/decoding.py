@@ -1,0 +1,179 @@
+"""Decoding image files: reading images and cameras, JSON records, pose and annotated drawings."""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.placement import tag_placement
+from ottag_db.decode.detector import Detection, Detector
+from ottag_db.decode.pose import estimate_pose
+from ottag_db.errors import DecodeError, UsageError
+
+__all__ = ["Camera", "decode_file", "detection_json", "draw_detections", "load_camera", "read_image"]
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole intrinsics: ``matrix`` 3×3 (pixels), ``dist`` OpenCV distortion coefficients."""
+
+    matrix: NDArray[np.float64]
+    dist: NDArray[np.float64]
+
+
+def load_camera(path: str | os.PathLike[str]) -> Camera:
+    """Read intrinsics from JSON (``camera_matrix`` + optional ``dist_coeffs``, or ``fx``, ``fy``,
+    ``cx``, ``cy``) or an OpenCV YAML/XML file (``camera_matrix``, ``distortion_coefficients``)."""
+    p = Path(path)
+    if not p.is_file():
+        raise UsageError(f"{p}: camera file not found")
+    if p.suffix.lower() in (".yml", ".yaml", ".xml"):
+        fs = cv2.FileStorage(str(p), cv2.FILE_STORAGE_READ)
+        try:
+            k = fs.getNode("camera_matrix").mat()
+            d = fs.getNode("distortion_coefficients").mat()
+        finally:
+            fs.release()
+        if k is None or k.shape != (3, 3):
+            raise UsageError(f"{p}: no 3×3 camera_matrix in the OpenCV file")
+        return Camera(
+            np.asarray(k, dtype=np.float64), np.zeros(5) if d is None else np.asarray(d, dtype=np.float64).ravel()
+        )
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise UsageError(f"{p}: cannot read the camera JSON ({exc})") from exc
+    try:
+        if "camera_matrix" in data:
+            k = np.asarray(data["camera_matrix"], dtype=np.float64)
+        else:
+            k = np.array(
+                [[data["fx"], 0.0, data["cx"]], [0.0, data["fy"], data["cy"]], [0.0, 0.0, 1.0]], dtype=np.float64
+            )
+        dist = np.asarray(data.get("dist_coeffs", [0, 0, 0, 0, 0]), dtype=np.float64).ravel()
+    except (KeyError, TypeError, ValueError) as exc:
+        raise UsageError(f"{p}: needs camera_matrix (3×3) or fx, fy, cx, cy ({exc})") from exc
+    if k.shape != (3, 3):
+        raise UsageError(f"{p}: camera_matrix must be 3×3")
+    return Camera(np.asarray(k, dtype=np.float64), dist)
+
+
+def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
+    """Read an image file as stored (8/16-bit, grey/BGR/BGRA); raises :class:`DecodeError`."""
+    p = Path(path)
+    if not p.exists():
+        raise DecodeError(f"{p}: no such file")
+    if p.is_dir():
+        raise DecodeError(f"{p}: is a directory, not an image")
+    img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+    if img is None:
+        raise DecodeError(f"{p}: not an image OpenCV can read (PNG, JPEG, TIFF, BMP, …)")
+    return np.asarray(img)
+
+
+def _arr(a: NDArray[np.float64] | None, digits: int = 3) -> Any:
+    return None if a is None else np.round(a, digits).tolist()
+
+
+def detection_json(
+    d: Detection, *, camera: Camera | None = None, tag_size: float | None = None, number: int | None = None
+) -> dict[str, Any]:
+    """The JSON object of one detection (see the README's contract); pose when asked."""
+    out: dict[str, Any] = {
+        "lambda": d.lambda_,
+        "k": d.k,
+        "order_type": d.order_type_id,
+        "number": number,
+        "tag": d.tag,
+        "polarity": d.polarity,
+        "points": _arr(d.points),
+        "model_points": _arr(d.model_points),
+        "corners": _arr(d.corners),
+        "homography": None if d.homography is None else np.asarray(d.homography).tolist(),
+        "reprojection_error_px": None if d.reprojection_error_px is None else round(d.reprojection_error_px, 4),
+        "margin_px": round(d.margin_px, 4),
+    }
+    if camera is not None and tag_size is not None:
+        placement = None if d.model_points is None else tag_placement(d.model_points)
+        pose = estimate_pose(d, camera.matrix, camera.dist, tag_size, placement)
+        out["pose"] = {
+            "rvec": np.asarray(pose.rvec).ravel().tolist(),
+            "tvec": np.asarray(pose.tvec).ravel().tolist(),
+            "R": np.asarray(pose.R).tolist(),
+            "reprojection_error_px": pose.reprojection_error_px,
+            "points_used": pose.n_points,
+            "unit": "same as --tag-size (mm)",
+            "solutions": [
+                {
+                    "rvec": np.asarray(s.rvec).ravel().tolist(),
+                    "tvec": np.asarray(s.tvec).ravel().tolist(),
+                    "reprojection_error_px": s.reprojection_error_px,
+                }
+                for s in pose.solutions
+            ],
+        }
+    return out
+
+
+def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path) -> None:
+    """Write ``image`` with data-area outlines, labelled points and IDs to ``out``."""
+    from ottag_db.decode.detector import to_gray
+
+    canvas = cv2.cvtColor(to_gray(image), cv2.COLOR_GRAY2BGR)
+    for d in detections:
+        quad = np.round(d.corners).astype(np.int32)
+        cv2.polylines(canvas, [quad], True, (0, 200, 0), 2, cv2.LINE_AA)
+        cv2.circle(canvas, tuple(int(v) for v in quad[0]), 5, (0, 0, 255), -1)
+        for label, (x, y) in enumerate(d.points):
+            c = (round(x), round(y))
+            cv2.circle(canvas, c, 3, (255, 80, 0), -1, cv2.LINE_AA)
+            cv2.putText(canvas, str(label), (c[0] + 4, c[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (255, 80, 0), 1)
+        cx, cy = d.center
+        text = f"k={d.k} #{d.order_type_id}" + (f" tag {d.tag}" if d.tag is not None else "") + f" {d.polarity}"
+        cv2.putText(canvas, text, (int(cx) - 40, int(cy)), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 255), 1, cv2.LINE_AA)
+    if not cv2.imwrite(str(out), canvas):
+        raise DecodeError(f"{out}: could not write the drawing")
+
+
+def decode_file(
+    detector: Detector,
+    path: str | os.PathLike[str],
+    *,
+    camera: Camera | None = None,
+    tag_size: float | None = None,
+    draw_dir: Path | None = None,
+    numbers: dict[int, int | None] | None = None,
+) -> dict[str, Any]:
+    """Decode one image file into ``{"image", "detections", "rejected"}`` (plus ``"error"``).
+
+    An unreadable file gives a record with ``"error"`` instead of raising, so a batch goes on.
+    ``numbers`` maps order-type ids to universal numbers for the output.
+    """
+    record: dict[str, Any] = {"image": str(path), "detections": [], "rejected": 0}
+    try:
+        image = read_image(path)
+        detections, rejected = detector.detect_with_rejections(image)
+    except DecodeError as exc:
+        record["error"] = str(exc)
+        return record
+    nums = numbers or {}
+    record["detections"] = [
+        detection_json(
+            d, camera=camera, tag_size=tag_size, number=nums.get(d.order_type_id) if d.order_type_id else None
+        )
+        for d in detections
+    ]
+    record["rejected"] = len(rejected)
+    record["rejections"] = [
+        {"reason": r.reason, "polarity": r.polarity, "lambda": r.lambda_, "detail": r.detail} for r in rejected
+    ]
+    if draw_dir is not None:
+        draw_detections(image, detections, draw_dir / (Path(path).stem + "_decoded.png"))
+    return record

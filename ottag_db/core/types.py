@@ -1,0 +1,22 @@
+"""Types and constants shared by every sub-package (pure Python, no I/O)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Literal
+
+__all__ = ["COMPLETE_COUNTS", "MP_THRESHOLDS", "POLARITIES", "Polarity", "ProgressCallback"]
+
+#: Tone of a tag: ``normal`` (white quiet zone, black data area, white triangles) or
+#: ``inverted`` (tones swapped).
+Polarity = Literal["normal", "inverted"]
+POLARITIES: tuple[Polarity, ...] = ("normal", "inverted")
+
+#: Progress report of long work: ``callback(done, total)``, both counts of the same unit.
+ProgressCallback = Callable[[int, int], None]
+
+#: MP thresholds (grid units) of the paper's Table 7: 0.5, 1.0, …, 9.0.
+MP_THRESHOLDS: tuple[float, ...] = tuple(0.5 * i for i in range(1, 19))
+
+#: Number of order types of k points, both chiralities (a complete database holds exactly these).
+COMPLETE_COUNTS: dict[int, int] = {3: 1, 4: 2, 5: 3, 6: 20, 7: 242, 8: 6405}

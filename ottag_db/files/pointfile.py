@@ -1,0 +1,176 @@
+"""Aichholzer's binary point-set files (``.b08`` uint8, ``.b16`` little-endian uint16), streamed."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ottag_db.errors import PointFileError
+
+__all__ = [
+    "OFFICIAL_RECORD_COUNTS",
+    "PointFileInfo",
+    "file_sha256",
+    "inspect_point_file",
+    "iter_point_chunks",
+    "read_point_file",
+    "write_point_file",
+]
+
+#: Record counts of the official files ``otypesNN.b08|b16`` for n = 3 … 10.
+OFFICIAL_RECORD_COUNTS: dict[int, int] = {
+    3: 1,
+    4: 2,
+    5: 3,
+    6: 16,
+    7: 135,
+    8: 3315,
+    9: 158_817,
+    10: 14_309_547,
+}
+
+_OFFICIAL_NAME = re.compile(r"^otypes(\d{2})\.b(08|16)$")
+# Files written by `ottag-db generate`: n from the name, no official record count.
+_OTTAG_NAME = re.compile(r"^ottag-k(\d{2})\.b(08|16)$")
+_DTYPES: dict[int, np.dtype[Any]] = {8: np.dtype("<u1"), 16: np.dtype("<u2")}
+
+
+@dataclass(frozen=True)
+class PointFileInfo:
+    """Layout of a point-set file: ``n`` points per record, ``bits`` per coordinate."""
+
+    path: Path
+    n: int
+    bits: int
+    records: int
+    official: bool
+
+    @property
+    def record_size(self) -> int:
+        """Bytes per record."""
+        return self.n * 2 * (self.bits // 8)
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        """numpy dtype of one coordinate."""
+        return _DTYPES[self.bits]
+
+
+def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> PointFileInfo:
+    """Validate a point-set file's name and size and return its layout.
+
+    ``n`` (points per record) comes from the argument or from an official name
+    ``otypesNN.b08|b16`` (or ``ottag-kNN.b08|b16`` as written by ``ottag-db generate``);
+    the coordinate width from the suffix ``.b08`` / ``.b16``.
+    Raises :class:`PointFileError` naming the file and the fix.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise PointFileError(f"{p}: no such file")
+    if p.is_dir():
+        raise PointFileError(f"{p}: is a directory, not a point-set file")
+    suffix = p.suffix.lower()
+    if suffix == ".b08":
+        bits = 8
+    elif suffix == ".b16":
+        bits = 16
+    else:
+        raise PointFileError(
+            f"{p}: unknown point-set file type {suffix or '(none)'!r}; expected .b08 (uint8) or "
+            ".b16 (little-endian uint16)"
+        )
+    match = _OFFICIAL_NAME.match(p.name.lower())
+    official = match is not None
+    ours = _OTTAG_NAME.match(p.name.lower())
+    name_n = int(match.group(1)) if match else int(ours.group(1)) if ours else None
+    if n is None:
+        if name_n is None:
+            raise PointFileError(f"{p}: cannot tell the number of points per record from the name; pass --points N")
+        n = name_n
+    elif name_n is not None and name_n != n:
+        raise PointFileError(f"{p}: the name says {name_n} points per record but --points is {n}")
+    if not 3 <= n <= 10:
+        raise PointFileError(f"{p}: unsupported number of points per record {n} (supported: 3 … 10)")
+    size = p.stat().st_size
+    record_size = n * 2 * (bits // 8)
+    if size == 0:
+        raise PointFileError(f"{p}: the file is empty")
+    if size % record_size:
+        raise PointFileError(
+            f"{p}: size {size} bytes is not a multiple of the record size {record_size} "
+            f"({n} points × 2 coordinates × {bits // 8} byte(s)); the file is truncated "
+            f"at byte offset {size - size % record_size} or --points is wrong"
+        )
+    records = size // record_size
+    if official and records != OFFICIAL_RECORD_COUNTS[n]:
+        raise PointFileError(
+            f"{p}: holds {records} records but the official file for n = {n} has "
+            f"{OFFICIAL_RECORD_COUNTS[n]}; the file looks truncated or wrong (download it again)"
+        )
+    return PointFileInfo(path=p, n=n, bits=bits, records=records, official=official)
+
+
+def iter_point_chunks(info: PointFileInfo, chunk_records: int = 65536) -> Iterator[tuple[int, NDArray[np.int64]]]:
+    """Yield ``(first_record_index, points)`` with ``points`` a ``(B, n, 2)`` int64 array.
+
+    Reads ``chunk_records`` records at a time, so memory stays bounded for any file size.
+    """
+    rs = info.record_size
+    with info.path.open("rb") as fh:
+        start = 0
+        while True:
+            buf = fh.read(rs * chunk_records)
+            if not buf:
+                break
+            if len(buf) % rs:
+                raise PointFileError(
+                    f"{info.path}: the file changed while reading; partial record at byte "
+                    f"offset {start * rs + len(buf) - len(buf) % rs}"
+                )
+            arr = np.frombuffer(buf, dtype=info.dtype).reshape(-1, info.n, 2).astype(np.int64)
+            yield start, arr
+            start += arr.shape[0]
+
+
+def read_point_file(path: str | os.PathLike[str], n: int | None = None) -> NDArray[np.int64]:
+    """Read a whole (small) point-set file into a ``(records, n, 2)`` int64 array."""
+    info = inspect_point_file(path, n)
+    chunks = [c for _, c in iter_point_chunks(info)]
+    return np.concatenate(chunks, axis=0)
+
+
+def write_point_file(path: str | os.PathLike[str], points: ArrayLike, bits: int | None = None) -> None:
+    """Write a ``(B, n, 2)`` array of non-negative integer coordinates as ``.b08`` / ``.b16``.
+
+    ``bits`` defaults to the file suffix. Coordinates must fit the width (0 … 255 or
+    0 … 65535).
+    """
+    p = Path(path)
+    if bits is None:
+        bits = {".b08": 8, ".b16": 16}.get(p.suffix.lower(), 0)
+    if bits not in _DTYPES:
+        raise PointFileError(f"{p}: choose .b08 or .b16 (or bits=8/16)")
+    arr = np.asarray(points)
+    if arr.ndim != 3 or arr.shape[2] != 2:
+        raise ValueError(f"expected (B, n, 2) coordinates, got {arr.shape}")
+    limit = 255 if bits == 8 else 65535
+    if arr.size and (arr.min() < 0 or arr.max() > limit or not np.all(np.equal(np.mod(arr, 1), 0))):
+        raise PointFileError(f"{p}: coordinates must be integers in 0 … {limit} for {bits}-bit files")
+    p.write_bytes(arr.astype(_DTYPES[bits]).tobytes())
+
+
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """Hex SHA-256 of a file, read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    with Path(path).open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()

@@ -1,0 +1,281 @@
+"""Import point-set files into the database: one transaction per file, streamed in chunks."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from sqlalchemy import Connection, func, insert, select, update
+from sqlalchemy.dialects import postgresql
+
+from ottag_db.core.canonical import canonicalize_lambdas, mirror_lambdas
+from ottag_db.core.geometry import analyse_point_sets, check_general_position
+from ottag_db.core.types import ProgressCallback
+from ottag_db.errors import GeneralPositionError, PointFileError
+from ottag_db.files.pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
+from ottag_db.store.db import Database
+from ottag_db.store.models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
+from ottag_db.store.numbering import assign_numbers
+
+__all__ = ["ImportReport", "ProgressCallback", "import_point_file", "import_point_files"]
+
+#: ``progress(done, total)`` in records; called after every chunk.
+
+# Records per chunk: an n = 10 chunk needs about 16384 × 450 float64 of orientations (60 MB).
+_CHUNK_RECORDS = 16384
+_IN_BATCH = 5000
+
+
+@dataclass(frozen=True)
+class ImportReport:
+    """What one file's import did. ``skipped`` is True when it was already imported."""
+
+    path: Path
+    n: int
+    records: int
+    new_order_types: int
+    new_realizations: int
+    skipped: bool
+    seconds: float
+    mirrors: bool
+
+
+@dataclass(frozen=True)
+class _ChunkData:
+    texts: list[str]
+    mirror_texts: list[str]
+    minimal: NDArray[np.int64]
+    hulls: NDArray[np.int64]
+    labelings: list[str]
+    mirror_labelings: list[str]
+    mp: NDArray[np.float64]
+
+    def mirrored(self) -> _ChunkData:
+        """The same data for the reflected sets: IDs and labelings swap, MP and hull stay."""
+        return _ChunkData(
+            texts=self.mirror_texts,
+            mirror_texts=self.texts,
+            minimal=self.minimal,
+            hulls=self.hulls,
+            labelings=self.mirror_labelings,
+            mirror_labelings=self.labelings,
+            mp=self.mp,
+        )
+
+
+def _analyse(points: NDArray[np.int64], first: int) -> _ChunkData:
+    analysis = analyse_point_sets(points)
+    if not analysis.general_position.all():
+        bad = int(np.flatnonzero(~analysis.general_position)[0])
+        check_general_position(points[bad : bad + 1], record_offset=first + bad)
+    lam = analysis.lambdas
+    batch = canonicalize_lambdas(lam)
+    # Reflection swaps left and right: the mirror's λ follows from λ without new geometry,
+    # and the reflected set keeps the point indices, so its labeling comes out directly.
+    mirror = canonicalize_lambdas(mirror_lambdas(lam))
+    return _ChunkData(
+        texts=batch.texts(),
+        mirror_texts=mirror.texts(),
+        minimal=batch.minimal_orderings,
+        hulls=batch.hull_sizes,
+        labelings=labelings_to_texts(batch.labelings),
+        mirror_labelings=labelings_to_texts(mirror.labelings),
+        mp=analysis.mp,
+    )
+
+
+def _reflect(points: NDArray[np.int64], max_coordinate: int) -> NDArray[np.int64]:
+    out = points.copy()
+    out[..., 0] = max_coordinate - out[..., 0]
+    return out
+
+
+_OT_COLUMNS = ("k", "canonical_lambda", "unique_min", "minimal_orderings", "hull_size", "mirror_lambda", "chiral")
+_R_COLUMNS = ("order_type_id", "source_id", "record_index", "mirrored", "coordinates", "mp", "canonical_labeling")
+
+
+def _upsert_order_types(conn: Connection, k: int, data: _ChunkData) -> dict[str, int]:
+    """Insert the chunk's new order types (others may exist from earlier files) and map ID → row id."""
+    rows: dict[str, tuple[object, ...]] = {}
+    for i, text in enumerate(data.texts):
+        if text not in rows:
+            mirror = data.mirror_texts[i]
+            rows[text] = (
+                k,
+                text,
+                bool(data.minimal[i] == 1),
+                int(data.minimal[i]),
+                int(data.hulls[i]),
+                mirror,
+                mirror != text,
+            )
+    keys = list(rows)
+    ids: dict[str, int] = {}
+    if conn.dialect.name == "sqlite":
+        # SQLite fast path: one INSERT OR IGNORE and one join through a temporary key table.
+        cols = ", ".join(_OT_COLUMNS)
+        conn.exec_driver_sql(
+            f"INSERT OR IGNORE INTO order_types ({cols}) VALUES ({', '.join('?' * len(_OT_COLUMNS))})",
+            list(rows.values()),
+        )
+        conn.exec_driver_sql("CREATE TEMP TABLE IF NOT EXISTS ottag_chunk_keys (lam TEXT PRIMARY KEY)")
+        conn.exec_driver_sql("DELETE FROM ottag_chunk_keys")
+        conn.exec_driver_sql("INSERT INTO ottag_chunk_keys (lam) VALUES (?)", [(t,) for t in keys])
+        found = conn.exec_driver_sql(
+            "SELECT o.canonical_lambda, o.id FROM ottag_chunk_keys c "
+            "JOIN order_types o ON o.k = ? AND o.canonical_lambda = c.lam",
+            (k,),
+        ).all()
+        ids.update({t: int(i) for t, i in found})
+        return ids
+    stmt: Any = insert(OrderType)
+    if conn.dialect.name == "postgresql":
+        stmt = postgresql.insert(OrderType).on_conflict_do_nothing()
+    for s in range(0, len(keys), _IN_BATCH):
+        part = keys[s : s + _IN_BATCH]
+        query = select(OrderType.canonical_lambda, OrderType.id).where(
+            OrderType.k == k, OrderType.canonical_lambda.in_(part)
+        )
+        ids.update({t: i for t, i in conn.execute(query).all()})
+        missing = [dict(zip(_OT_COLUMNS, rows[t], strict=True)) for t in part if t not in ids]
+        if missing:
+            conn.execute(stmt, missing)
+            ids.update({t: i for t, i in conn.execute(query).all()})
+    return ids
+
+
+def _insert_realizations(
+    conn: Connection,
+    source_id: int,
+    first: int,
+    points: NDArray[np.int64],
+    data: _ChunkData,
+    ids: dict[str, int],
+    mirrored: bool,
+    keep: NDArray[np.bool_] | None = None,
+) -> int:
+    blobs = coordinates_to_blobs(points)
+    idx = range(points.shape[0]) if keep is None else np.flatnonzero(keep).tolist()
+    mp = data.mp.tolist()
+    rows = [(ids[data.texts[i]], source_id, first + i, mirrored, blobs[i], mp[i], data.labelings[i]) for i in idx]
+    if not rows:
+        return 0
+    if conn.dialect.name == "sqlite":
+        conn.exec_driver_sql(
+            f"INSERT INTO realizations ({', '.join(_R_COLUMNS)}) VALUES ({', '.join('?' * len(_R_COLUMNS))})", rows
+        )
+    else:
+        conn.execute(insert(Realization), [dict(zip(_R_COLUMNS, r, strict=True)) for r in rows])
+    return len(rows)
+
+
+def import_point_file(
+    db: Database,
+    path: str | os.PathLike[str],
+    *,
+    n: int | None = None,
+    with_mirrors: bool = False,
+    progress: ProgressCallback | None = None,
+    display_name: str | None = None,
+) -> ImportReport:
+    """Import one ``.b08``/``.b16`` file in a single transaction.
+
+    Every record is checked for general position, canonicalized and stored as a
+    realization of its order type (order types are shared across files). With
+    ``with_mirrors`` the mirror image (x → max − x) of every chiral record is stored too,
+    as a realization of the mirror order type. Importing a file whose SHA-256 is already
+    recorded (with the same or fewer mirrors) is a no-op reported with ``skipped=True``.
+    Any error rolls the whole file back and raises a typed error naming the file and record.
+    """
+    start = time.perf_counter()
+    info = inspect_point_file(path, n)
+    name = display_name or info.path.name
+    digest = file_sha256(info.path)
+    max_coordinate = (1 << info.bits) - 1
+    with db.engine.begin() as conn:
+        src = conn.execute(select(Source).where(Source.sha256 == digest)).first()
+        if src is not None and (src.mirrors_included or not with_mirrors):
+            return ImportReport(info.path, info.n, info.records, 0, 0, True, time.perf_counter() - start, with_mirrors)
+        before = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()
+        only_mirrors = src is not None
+        if src is None:
+            inserted = conn.execute(
+                insert(Source).values(
+                    file_name=name,
+                    sha256=digest,
+                    n=info.n,
+                    coordinate_bits=info.bits,
+                    records=info.records,
+                    mirrors_included=with_mirrors,
+                    imported_at=datetime.now(),
+                )
+            ).inserted_primary_key
+            assert inserted is not None
+            source_id = inserted[0]
+        else:
+            source_id = src.id
+            conn.execute(update(Source).where(Source.id == source_id).values(mirrors_included=True))
+        added = 0
+        try:
+            added = _import_chunks(conn, info, int(source_id), with_mirrors, only_mirrors, max_coordinate, progress)
+        except GeneralPositionError as exc:
+            record = exc.record if exc.record is not None else 0
+            raise PointFileError(
+                f"{name}: record {record} (byte offset {record * info.record_size}): "
+                f"{str(exc).split(': ', 1)[-1]}; every point set must be in general position — fix or drop that record"
+            ) from exc
+        after = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()
+        assign_numbers(conn)
+    return ImportReport(
+        info.path, info.n, info.records, int(after - before), added, False, time.perf_counter() - start, with_mirrors
+    )
+
+
+def _import_chunks(
+    conn: Connection,
+    info: PointFileInfo,
+    source_id: int,
+    with_mirrors: bool,
+    only_mirrors: bool,
+    max_coordinate: int,
+    progress: ProgressCallback | None,
+) -> int:
+    added = 0
+    done = 0
+    for first, points in iter_point_chunks(info, _CHUNK_RECORDS):
+        data = _analyse(points, first)
+        if not only_mirrors:
+            ids = _upsert_order_types(conn, info.n, data)
+            added += _insert_realizations(conn, source_id, first, points, data, ids, mirrored=False)
+        if with_mirrors:
+            chiral = np.array([m != t for m, t in zip(data.mirror_texts, data.texts, strict=True)], dtype=bool)
+            if chiral.any():
+                mirrored_points = _reflect(points, max_coordinate)
+                mdata = data.mirrored()
+                ids = _upsert_order_types(conn, info.n, mdata)
+                added += _insert_realizations(
+                    conn, source_id, first, mirrored_points, mdata, ids, mirrored=True, keep=chiral
+                )
+        done += points.shape[0]
+        if progress is not None:
+            progress(done, info.records)
+    return added
+
+
+def import_point_files(
+    db: Database,
+    paths: Sequence[str | os.PathLike[str]],
+    *,
+    n: int | None = None,
+    with_mirrors: bool = False,
+    progress: ProgressCallback | None = None,
+) -> list[ImportReport]:
+    """Import several files, each in its own transaction; stops at the first failing file."""
+    return [import_point_file(db, p, n=n, with_mirrors=with_mirrors, progress=progress) for p in paths]

@@ -1,0 +1,365 @@
+"""Read-side queries: statistics (paper Tables 2, 3, 7), listings, details and ad-hoc IDs."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from ottag_db.core.canonical import canonical_form, lambda_text, parse_lambda_text
+from ottag_db.core.geometry import check_general_position, maximal_perturbation
+from ottag_db.core.types import MP_THRESHOLDS
+from ottag_db.errors import GeneralPositionError, NotFoundError, UsageError
+from ottag_db.store.db import Database
+from ottag_db.store.models import OrderType, Realization, coordinates_from_blob
+
+__all__ = [
+    "MP_THRESHOLDS",
+    "IdResult",
+    "KStats",
+    "OrderTypeDetail",
+    "OrderTypeSummary",
+    "RealizationInfo",
+    "database_stats",
+    "get_order_type",
+    "identify_points",
+    "list_order_types",
+    "order_type_numbers",
+    "parse_points",
+]
+
+#: The v values of the paper's Table 7: 0.5, 1.0, …, 9.0 (grid units).
+
+
+@dataclass(frozen=True)
+class KStats:
+    """Counts for one k: order types (Table 2), unique minimum (Table 3), MP ≥ v (Table 7).
+
+    ``mp_at_least[v]`` counts order types whose best realization has MP ≥ v. The
+    ``*_up_to_reflection`` counts take a chiral pair once (as Aichholzer's files and the
+    paper's tables do): a chiral order type whose mirror is also stored counts only when its
+    canonical λ is the smaller of the two.
+    """
+
+    k: int
+    order_types: int
+    unique_min: int
+    chiral: int
+    mp_at_least: dict[float, int]
+    up_to_reflection: int = 0
+    unique_min_up_to_reflection: int = 0
+    mp_at_least_up_to_reflection: dict[float, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class OrderTypeSummary:
+    """One order type with its best (largest-MP) realization; ``points`` in file order."""
+
+    id: int
+    k: int
+    lambda_text: str
+    mp: float
+    points: list[list[int]]
+    hull_size: int
+    unique_min: bool
+    minimal_orderings: int
+    chiral: bool
+    mirror: str
+    realizations: int
+    number: int | None = None
+
+    def as_json(self) -> dict[str, object]:
+        """The machine-readable contract of ``list --format json``."""
+        return {
+            "id": self.id,
+            "number": self.number,
+            "k": self.k,
+            "lambda": self.lambda_text,
+            "mp": self.mp,
+            "points": self.points,
+            "hull_size": self.hull_size,
+            "unique_min": self.unique_min,
+            "minimal_orderings": self.minimal_orderings,
+            "chiral": self.chiral,
+            "mirror": self.mirror,
+            "realizations": self.realizations,
+        }
+
+
+@dataclass(frozen=True)
+class RealizationInfo:
+    """One stored realization: its source file, record, coordinates (file order), MP, labeling."""
+
+    id: int
+    source: str
+    record_index: int
+    mirrored: bool
+    points: list[list[int]]
+    mp: float
+    labeling: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class OrderTypeDetail:
+    """Everything ``show`` prints: the summary, the λ-matrix and all realizations (best first)."""
+
+    summary: OrderTypeSummary
+    lambda_matrix: NDArray[np.int8]
+    mirror_id: int | None
+    realizations: list[RealizationInfo]
+
+
+@dataclass(frozen=True)
+class IdResult:
+    """Canonical ID of an ad-hoc point set and whether the database holds it."""
+
+    lambda_text: str
+    k: int
+    unique_min: bool
+    minimal_orderings: int
+    hull_size: int
+    mp: float
+    labeling: tuple[int, ...]
+    in_database: bool
+    id: int | None
+    number: int | None = None
+
+    def as_json(self) -> dict[str, object]:
+        """The machine-readable contract of ``id --json``."""
+        return {
+            "lambda": self.lambda_text,
+            "k": self.k,
+            "unique_min": self.unique_min,
+            "in_database": self.in_database,
+            "id": self.id,
+            "number": self.number,
+            "minimal_orderings": self.minimal_orderings,
+            "hull_size": self.hull_size,
+            "mp": self.mp,
+            "labeling": list(self.labeling),
+        }
+
+
+def _best_mp() -> Any:
+    return select(Realization.order_type_id, func.max(Realization.mp).label("mp"), func.count().label("n")).group_by(
+        Realization.order_type_id
+    )
+
+
+def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) -> list[KStats]:
+    """Per k: order types, unique-minimum ones, chiral ones and MP ≥ v counts (best realization)."""
+    best = _best_mp().subquery()
+    with db.session() as s:
+        rows = s.execute(
+            select(
+                OrderType.k,
+                OrderType.unique_min,
+                OrderType.chiral,
+                best.c.mp,
+                OrderType.canonical_lambda,
+                OrderType.mirror_lambda,
+            ).join(best, best.c.order_type_id == OrderType.id)
+        ).all()
+    if not rows:
+        return []
+    ks = np.array([r[0] for r in rows])
+    uniq = np.array([bool(r[1]) for r in rows])
+    chiral = np.array([bool(r[2]) for r in rows])
+    mp = np.array([float(r[3]) for r in rows])
+    stored = {r[4] for r in rows}
+    # One per reflection pair: drop the chiral type whose mirror is stored with a smaller λ.
+    rep = np.array([not r[2] or r[5] not in stored or r[4] < r[5] for r in rows])
+    out = []
+    for k in sorted(set(ks.tolist())):
+        sel = ks == k
+        pair = sel & rep
+        out.append(
+            KStats(
+                k=int(k),
+                order_types=int(sel.sum()),
+                unique_min=int(uniq[sel].sum()),
+                chiral=int(chiral[sel].sum()),
+                mp_at_least={float(v): int((mp[sel] >= v).sum()) for v in thresholds},
+                up_to_reflection=int(pair.sum()),
+                unique_min_up_to_reflection=int(uniq[pair].sum()),
+                mp_at_least_up_to_reflection={float(v): int((mp[pair] >= v).sum()) for v in thresholds},
+            )
+        )
+    return out
+
+
+def list_order_types(
+    db: Database,
+    *,
+    ks: Sequence[int] = (),
+    min_mp: float | None = None,
+    matchable: bool = False,
+    ids: Sequence[int] = (),
+    lambdas: Sequence[str] = (),
+) -> list[OrderTypeSummary]:
+    """Order types with their best realization, ordered by k then canonical λ (deterministic)."""
+    best = _best_mp().subquery()
+    q = (
+        select(OrderType, best.c.mp, best.c.n)
+        .join(best, best.c.order_type_id == OrderType.id)
+        .order_by(OrderType.k, OrderType.canonical_lambda)
+    )
+    if ks:
+        q = q.where(OrderType.k.in_(list(ks)))
+    if min_mp is not None:
+        q = q.where(best.c.mp >= min_mp)
+    if matchable:
+        q = q.where(OrderType.unique_min.is_(True))
+    if ids:
+        q = q.where(OrderType.id.in_(list(ids)))
+    if lambdas:
+        q = q.where(OrderType.canonical_lambda.in_(list(lambdas)))
+    with db.session() as s:
+        rows = s.execute(q).all()
+        best_points = _best_realization_points(s, [r[0].id for r in rows])
+    return [
+        OrderTypeSummary(
+            id=ot.id,
+            k=ot.k,
+            lambda_text=ot.canonical_lambda,
+            mp=float(mp),
+            points=best_points[ot.id],
+            hull_size=ot.hull_size,
+            unique_min=bool(ot.unique_min),
+            minimal_orderings=ot.minimal_orderings,
+            chiral=bool(ot.chiral),
+            mirror=ot.mirror_lambda,
+            realizations=int(n),
+            number=ot.number,
+        )
+        for ot, mp, n in rows
+    ]
+
+
+def _best_realization_points(s: Session, order_type_ids: list[int]) -> dict[int, list[list[int]]]:
+    out: dict[int, list[list[int]]] = {}
+    chunk = 5000
+    for i in range(0, len(order_type_ids), chunk):
+        part = order_type_ids[i : i + chunk]
+        rows = s.execute(
+            select(Realization.order_type_id, Realization.coordinates, Realization.mp, Realization.id)
+            .where(Realization.order_type_id.in_(part))
+            .order_by(Realization.order_type_id, Realization.mp.desc(), Realization.id)
+        ).all()
+        for ot_id, blob, _mp, _rid in rows:
+            if ot_id not in out:
+                out[ot_id] = coordinates_from_blob(blob).tolist()
+    return out
+
+
+def get_order_type(db: Database, ident: str | int) -> OrderTypeDetail:
+    """Look an order type up by database id (int or digits) or canonical text ``k:digits``."""
+    with db.session() as s:
+        if isinstance(ident, int) or str(ident).strip().isdigit():
+            ot = s.get(OrderType, int(ident))
+            if ot is None:
+                raise NotFoundError(f"no order type with id {ident} in the database")
+        else:
+            mat = parse_lambda_text(str(ident))
+            text = lambda_text(mat)
+            ot = s.execute(
+                select(OrderType).where(OrderType.k == mat.shape[0], OrderType.canonical_lambda == text)
+            ).scalar_one_or_none()
+            if ot is None:
+                raise NotFoundError(f"order type {text} is not in the database")
+        mirror_id = s.execute(
+            select(OrderType.id).where(OrderType.k == ot.k, OrderType.canonical_lambda == ot.mirror_lambda)
+        ).scalar_one_or_none()
+        reals = sorted(ot.realizations, key=lambda r: (-r.mp, r.id))
+        infos = [
+            RealizationInfo(
+                id=r.id,
+                source=r.source.file_name,
+                record_index=r.record_index,
+                mirrored=bool(r.mirrored),
+                points=r.points().tolist(),
+                mp=float(r.mp),
+                labeling=r.labeling(),
+            )
+            for r in reals
+        ]
+        if not infos:
+            raise NotFoundError(f"order type {ot.canonical_lambda} has no realization")
+        summary = OrderTypeSummary(
+            id=ot.id,
+            k=ot.k,
+            lambda_text=ot.canonical_lambda,
+            mp=infos[0].mp,
+            points=infos[0].points,
+            hull_size=ot.hull_size,
+            unique_min=bool(ot.unique_min),
+            minimal_orderings=ot.minimal_orderings,
+            chiral=bool(ot.chiral),
+            mirror=ot.mirror_lambda,
+            realizations=len(infos),
+            number=ot.number,
+        )
+    return OrderTypeDetail(
+        summary=summary, lambda_matrix=parse_lambda_text(summary.lambda_text), mirror_id=mirror_id, realizations=infos
+    )
+
+
+def parse_points(text: str) -> NDArray[np.float64]:
+    """Parse ``"x,y x,y …"`` (also ``;`` separated) into a ``(k, 2)`` array; raises UsageError."""
+    parts = [p for p in text.replace(";", " ").split() if p]
+    pts = []
+    for p in parts:
+        xy = p.split(",")
+        if len(xy) != 2:
+            raise UsageError(f"cannot read point {p!r}: write points as x,y separated by spaces")
+        try:
+            pts.append([float(xy[0]), float(xy[1])])
+        except ValueError as exc:
+            raise UsageError(f"cannot read point {p!r}: coordinates must be numbers") from exc
+    if not 3 <= len(pts) <= 10:
+        raise UsageError(f"a point set needs 3 to 10 points, got {len(pts)}")
+    return np.array(pts, dtype=np.float64)
+
+
+def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
+    """Canonical ID of an ad-hoc ``(k, 2)`` point set and its database id, if stored."""
+    pts = np.asarray(points, dtype=np.float64)
+    try:
+        check_general_position(pts)
+    except GeneralPositionError as exc:
+        raise GeneralPositionError(str(exc).replace("record 0: ", ""), points=exc.points) from exc
+    form = canonical_form(pts)
+    found: int | None = None
+    number: int | None = None
+    if db is not None:
+        with db.session() as s:
+            row = s.execute(
+                select(OrderType.id, OrderType.number).where(
+                    OrderType.k == form.k, OrderType.canonical_lambda == form.text
+                )
+            ).first()
+            if row is not None:
+                found, number = int(row[0]), row[1]
+    return IdResult(
+        lambda_text=form.text,
+        k=form.k,
+        unique_min=form.unique_min,
+        minimal_orderings=form.minimal_orderings,
+        hull_size=form.hull_size,
+        mp=maximal_perturbation(pts),
+        labeling=form.labeling,
+        in_database=found is not None,
+        id=found,
+        number=number,
+    )
+
+
+def order_type_numbers(db: Database) -> dict[int, int | None]:
+    """Database id → universal number of every order type."""
+    with db.session() as s:
+        return {int(i): n for i, n in s.execute(select(OrderType.id, OrderType.number)).all()}

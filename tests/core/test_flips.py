@@ -1,0 +1,81 @@
+"""Tests of ottag_db.core.flips: hand-made examples, symmetry, mirrors, confirmation by orientations."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ottag_db.core.canonical import canonical_batch, canonical_lambda
+from ottag_db.core.flips import flip_neighbours
+from ottag_db.core.geometry import orientation_tensor
+
+
+def _complete(sets: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Both chiralities of the given sets, deduplicated, rows in canonical order."""
+    mirrored = sets.astype(float).copy()
+    mirrored[..., 0] = 255 - mirrored[..., 0]
+    allp = np.concatenate([sets.astype(float), mirrored])
+    cb = canonical_batch(allp)
+    texts = cb.texts()
+    first: dict[str, int] = {}
+    for i, t in enumerate(texts):
+        first.setdefault(t, i)
+    idx = list(first.values())
+    pts = allp[idx][np.arange(len(idx))[:, None], cb.labelings[idx]]
+    return pts, [texts[i] for i in idx]
+
+
+def _graph(pts: np.ndarray, texts: list[str]) -> dict[str, set[str]]:
+    out: dict[str, set[str]] = {t: set() for t in texts}
+    for e in flip_neighbours(pts, texts):
+        out[texts[e.source]].add(texts[e.target])
+    return out
+
+
+PENTAGON = [[100, 0], [200, 70], [160, 190], [40, 190], [0, 70]]
+FOUR_PLUS_ONE = [[0, 0], [200, 0], [200, 200], [0, 200], [90, 60]]
+THREE_PLUS_TWO = [[0, 0], [255, 10], [120, 250], [100, 80], [150, 125]]
+
+
+def test_convex_pentagon_neighbours() -> None:
+    sets = np.array([PENTAGON, FOUR_PLUS_ONE, THREE_PLUS_TWO])
+    pts, texts = _complete(sets)
+    assert len(texts) == 3
+    g = _graph(pts, texts)
+    pent, four, three = (canonical_lambda(np.array(s)) for s in (PENTAGON, FOUR_PLUS_ONE, THREE_PLUS_TWO))
+    # Moving one hull vertex inside is the only flip of a convex pentagon.
+    assert g[pent] == {four}
+    assert pent in g[four] and three in g[four]
+    assert g[three] - {three} == {four}
+
+
+def test_symmetry_and_mirrors(reference_sets: dict[int, np.ndarray]) -> None:
+    pts, texts = _complete(reference_sets[7])
+    assert len(texts) == 242
+    g = _graph(pts, texts)
+    for a, nbrs in g.items():
+        for b in nbrs:
+            assert a in g[b]
+    mirror_of = {}
+    mirrored = pts.copy()
+    mirrored[..., 0] = 255 - mirrored[..., 0]
+    for t, m in zip(texts, canonical_batch(mirrored).texts(), strict=True):
+        mirror_of[t] = m
+    for a, nbrs in g.items():
+        assert {mirror_of[b] for b in nbrs} == g[mirror_of[a]]
+
+
+def test_every_edge_differs_by_exactly_one_triple(reference_sets: dict[int, np.ndarray]) -> None:
+    pts, texts = _complete(reference_sets[6])
+    left = orientation_tensor(pts) < 0
+    edges = flip_neighbours(pts, texts)
+    assert edges
+    for e in edges:
+        a, b, c = e.triple
+        flipped = left[e.source].copy()
+        for x, y, z in ((a, b, c), (b, c, a), (c, a, b), (b, a, c), (a, c, b), (c, b, a)):
+            flipped[x, y, z] = ~flipped[x, y, z]
+        # Some relabeling of the target has exactly these orientations: find it by canonicalizing.
+        target = pts[e.target]
+        assert canonical_lambda(target) == texts[e.target]
+        diff = (left[e.source] != flipped).sum()
+        assert diff == 6

@@ -1,0 +1,82 @@
+"""Tests of ottag_db.core.geometry: λ-matrices, hulls, MP and general position."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ottag_db.core.canonical import relabel_lambda
+from ottag_db.core.geometry import (
+    check_general_position,
+    general_position_mask,
+    hull_size,
+    hull_sizes,
+    lambda_matrices,
+    lambda_matrix,
+    maximal_perturbation,
+    maximal_perturbations,
+    orientation_tensor,
+)
+from ottag_db.errors import GeneralPositionError
+from tests.support.paper import FIG4, FIG8, TABLE9
+
+
+def test_orientation_convention_screen_coordinates() -> None:
+    # y grows downwards: (0,0)->(10,0) and the point (5,-5) is "above" on screen = left.
+    d = orientation_tensor([[0, 0], [10, 0], [5, -5]])[0]
+    assert d[0, 1, 2] < 0
+    assert lambda_matrix([[0, 0], [10, 0], [5, -5]])[0, 1] == 1
+
+
+def test_fig4_lambda_in_canonical_order_is_table9() -> None:
+    lam = lambda_matrix(FIG4)
+    # Canonical labeling of Fig. 4 found by Algorithm 2 (file index of labels 0..6).
+    assert relabel_lambda(lam, [4, 6, 5, 0, 1, 2, 3]).tolist() == TABLE9
+
+
+def test_lambda_rows_sum_and_antisymmetry() -> None:
+    rng = np.random.default_rng(1)
+    pts = rng.integers(0, 65536, size=(200, 9, 2))
+    lam = lambda_matrices(pts).astype(int)
+    n = 9
+    off = ~np.eye(n, dtype=bool)
+    assert np.all((lam + lam.transpose(0, 2, 1))[:, off] == n - 2)
+
+
+def test_16_bit_coordinates_do_not_overflow() -> None:
+    # A nearly degenerate triple at the 16-bit extremes: exact arithmetic must see it.
+    pts = np.array([[0, 0], [65535, 65534], [65534, 65533]])
+    d = orientation_tensor(pts)[0]
+    exact = (65535 - 0) * (65533 - 0) - (65534 - 0) * (65534 - 0)
+    assert d[0, 1, 2] == exact
+    assert lambda_matrix(pts)[0, 1] == (1 if exact < 0 else 0)
+
+
+def test_hull_sizes() -> None:
+    assert hull_size(FIG4) == 6
+    assert hull_size(FIG8) == 3
+    square_plus_center = [[0, 0], [10, 0], [10, 10], [0, 10], [4, 6]]
+    assert hull_size(square_plus_center) == 4
+    assert hull_sizes(lambda_matrices(np.array([square_plus_center, FIG8]))).tolist() == [4, 3]
+
+
+def test_maximal_perturbation_by_hand() -> None:
+    # Triangle with base 10 and height 4: smallest point-line distance is the height of
+    # the shortest altitude = 2*area / longest side.
+    pts = np.array([[0, 0], [10, 0], [5, 4]])
+    area2 = 40.0
+    longest = 10.0
+    assert maximal_perturbation(pts) == pytest.approx(0.5 * area2 / longest)
+    batch = maximal_perturbations(np.stack([pts, pts * 2]))
+    assert batch[1] == pytest.approx(2 * batch[0])
+
+
+def test_general_position_errors_name_the_points() -> None:
+    with pytest.raises(GeneralPositionError, match=r"points 0, 1 and 3 are collinear") as err:
+        check_general_position([[0, 0], [1, 1], [5, 0], [2, 2]])
+    assert err.value.points == (0, 1, 3)
+    with pytest.raises(GeneralPositionError, match=r"points 1 and 2 are the same point"):
+        check_general_position([[0, 0], [3, 1], [3, 1], [7, 9]])
+    with pytest.raises(GeneralPositionError, match=r"record 12"):
+        check_general_position(np.array([[[0, 0], [1, 1], [2, 2]]]), record_offset=12)
+    assert general_position_mask(np.array([FIG8, [[0, 0], [1, 1], [2, 2], [3, 7], [9, 1]]])).tolist() == [True, False]

@@ -1,0 +1,98 @@
+"""Tests of ottag_db.store.db: opening, migrating, backups, pragmas and corrupt files."""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+import pytest
+from alembic import command
+from sqlalchemy import text
+
+from ottag_db.errors import DatabaseError
+from ottag_db.store.db import _alembic_config, head_revision, open_database, resolve_database_url
+
+
+def test_new_database_is_at_head_with_wal_and_foreign_keys(tmp_path: Path) -> None:
+    path = tmp_path / "new.sqlite"
+    db = open_database(path)
+    try:
+        assert db.current_revision() == head_revision()
+        with db.engine.connect() as conn:
+            assert conn.exec_driver_sql("PRAGMA foreign_keys").scalar() == 1
+            assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+            names = {r[0] for r in conn.execute(text("SELECT name FROM sqlite_master WHERE type='table'"))}
+        assert {"sources", "order_types", "realizations", "alembic_version"} <= names
+        assert db.backup is None
+    finally:
+        db.close()
+
+
+def test_constraints_are_named(tmp_path: Path) -> None:
+    db = open_database(tmp_path / "n.sqlite")
+    db.close()
+    sql = " ".join(
+        r[0]
+        for r in sqlite3.connect(tmp_path / "n.sqlite").execute("SELECT sql FROM sqlite_master WHERE sql IS NOT NULL")
+    )
+    for name in [
+        "pk_sources",
+        "uq_sources_sha256",
+        "uq_order_types_k_canonical_lambda",
+        "fk_realizations_order_type_id_order_types",
+    ]:
+        assert name in sql
+
+
+def test_url_and_env_resolution(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    _, path = resolve_database_url(f"sqlite:///{tmp_path}/u.sqlite")
+    assert path == (tmp_path / "u.sqlite").resolve()
+    monkeypatch.setenv("OTTAG_DB", str(tmp_path / "env.sqlite"))
+    assert resolve_database_url(None)[1] == (tmp_path / "env.sqlite").resolve()
+    monkeypatch.delenv("OTTAG_DB")
+    monkeypatch.chdir(tmp_path)
+    assert resolve_database_url(None)[1] == (tmp_path / "ottag.sqlite").resolve()
+    db = open_database(f"sqlite:///{tmp_path}/u.sqlite")
+    assert db.current_revision() == head_revision()
+    db.close()
+
+
+def test_corrupt_file_is_refused_and_untouched(tmp_path: Path) -> None:
+    path = tmp_path / "corrupt.sqlite"
+    path.write_bytes(b"this is not a database" * 50)
+    before = path.read_bytes()
+    with pytest.raises(DatabaseError, match="not an SQLite database"):
+        open_database(path)
+    assert path.read_bytes() == before
+
+
+def test_foreign_database_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "other.sqlite"
+    con = sqlite3.connect(path)
+    con.execute("CREATE TABLE customers (id INTEGER)")
+    con.commit()
+    con.close()
+    with pytest.raises(DatabaseError, match="not an ottag database"):
+        open_database(path)
+
+
+def test_older_revision_is_backed_up_then_migrated(tmp_path: Path) -> None:
+    head = head_revision()
+    if head == "0001":
+        pytest.skip("only one revision so far")
+    path = tmp_path / "old.sqlite"
+    db = open_database(path, migrate=False)
+    cfg = _alembic_config()
+    with db.engine.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "0001")
+    db.close()
+    db = open_database(path)
+    try:
+        assert db.current_revision() == head
+        assert db.backup is not None and db.backup.exists()
+        con = sqlite3.connect(db.backup)
+        assert con.execute("SELECT version_num FROM alembic_version").fetchone()[0] == "0001"
+        con.close()
+    finally:
+        db.close()
