@@ -1,57 +1,97 @@
 """Decode speed: Order Type Tag decoder vs cv2.aruco.ArucoDetector on the same 640×480 scenes.
 
-Usage: OTTAG_AICHHOLZER_DIR=../shared/otdb python benchmarks/decode_speed.py [frames] [cv2_threads]
+Usage: python benchmarks/decode_speed.py [frames] [cv2_threads]
 Runs twice: with OpenCV's default thread count (``cv2_threads`` if given), where ArUco may use
 every core while our decoder's Python work runs on one, and with one OpenCV thread.
 Each scene is rendered twice with the same pose, blur, noise, light and JPEG: once with an Order
 Type Tag (k = 8, project layout and placement), once with an ArUco 6×6 marker of the same
 data-area size. Prints ms/frame for both detectors and the ratio (target ≤ 1.0).
+The tags and the decoder's lookup (k = 5 … 8) come from the bundled data, imported with mirrors
+(every order type) into a temporary SQLite file and read back as ``ottag-db`` reads them.
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
+import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from ottag_db.core.lookup import MemoryLookup
+from ottag_db.decode import Detector
+from ottag_db.files.bundled import bundled_point_files
+from ottag_db.printing import scenes
+from ottag_db.store.db import open_database
+from ottag_db.store.importer import import_point_file
+from ottag_db.store.lookups import load_lookup
+from ottag_db.store.tags import TagRecord, select_tags
 
-from ottag_db.decode.detector import Detector
-from tests.support import tagsynth as ts
+#: Point counts of the decoder's lookup (k = 3 and 4 tags are not drawn).
+LOOKUP_KS = (5, 6, 7, 8)
 
 
-def make_scenes(frames: int) -> tuple[object, list[np.ndarray], list[np.ndarray]]:
+def bundled_tags(folder: Path, ks: Sequence[int] = LOOKUP_KS) -> tuple[MemoryLookup, list[TagRecord]]:
+    """Import the bundled data into a new SQLite file in ``folder``; its lookup and tags.
+
+    Parameters
+    ----------
+    folder : Path
+        An existing folder for the database file (a temporary one).
+    ks : sequence of int
+        Point counts of the lookup and of the tags.
+
+    Returns
+    -------
+    lookup : MemoryLookup
+        Every order type of those k (mirrors included) with its realizations.
+    tags : list of TagRecord
+        Each order type's tag as ``export`` prints it (stored layout and placement).
+    """
+    db = open_database(folder / "bundled.sqlite")
+    try:
+        for path, k in bundled_point_files():
+            import_point_file(db, path, n=k, with_mirrors=True)
+        return load_lookup(db, ks=ks), select_tags(db, ks=ks)
+    finally:
+        db.close()
+
+
+def drawable(tag: TagRecord) -> scenes.DrawableTag:
+    """The tag as the scene renderer draws it (points in canonical label order)."""
+    return scenes.drawable_from_file_order(
+        tag.lambda_text, tag.points, tag.labeling, tag.triangles, tag.placement, tag.printed_mp_unit
+    )
+
+
+def make_scenes(frames: int) -> tuple[MemoryLookup, list[np.ndarray], list[np.ndarray]]:
     """Lookup and the paired frames (Order Type Tag, ArUco marker) of the benchmark."""
-    folder = ts.aichholzer_dir()
-    if folder is None:
-        raise SystemExit("set OTTAG_AICHHOLZER_DIR to the folder with otypes05.b08 … otypes08.b08")
-    lookup, records = ts.reference_lookup(folder)
-    recs = [r for r in records if r["k"] == 8]
+    with tempfile.TemporaryDirectory() as tmp:
+        lookup, records = bundled_tags(Path(tmp))
+    tags = [drawable(t) for t in records if t.k == 8]
     rng = np.random.default_rng(7)
     dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
     marker = cv2.aruco.generateImageMarker(dictionary, 5, 400)
     marker = cv2.copyMakeBorder(marker, 100, 100, 100, 100, cv2.BORDER_CONSTANT, value=255)
-    cache: dict[bytes, ts.Drawable] = {}
-    ours_imgs, aruco_imgs = [], []
+    ours_imgs: list[np.ndarray] = []
+    aruco_imgs: list[np.ndarray] = []
     while len(ours_imgs) < frames:
-        rec = recs[int(rng.integers(len(recs)))]
-        dr = ts.drawable(rec, cache)
-        if ts.min_width_px(dr.mp_unit) > 180:
+        tag = tags[int(rng.integers(len(tags)))]
+        w_min = scenes.min_width_px(tag.printed_mp_unit)
+        if w_min > 180:
             continue
-        width = rng.uniform(max(90.0, ts.min_width_px(dr.mp_unit)), 200)
-        spec = ts.posed_spec(rec, rng, width, rng.uniform(0, 45), cache=cache)
-        hom = spec.homography
+        width = rng.uniform(max(90.0, w_min), 200)
+        spec = scenes.posed_spec(tag, rng, width, rng.uniform(0, 45))
         cond = {"blur": rng.uniform(0, 1), "noise": rng.uniform(0, 4), "gradient": rng.uniform(0, 0.4), "jpeg": 80}
         seed = int(rng.integers(1 << 30))
-        ours_imgs.append(ts.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image)
-        hom_m = hom @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
+        ours_imgs.append(scenes.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image)
+        # The marker patch has a white border of 1/4 of the marker's side on each side.
+        hom_m = spec.homography @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
         aruco_imgs.append(
-            ts.render_scene((480, 640), [], np.random.default_rng(seed), extra=[(marker, hom_m)], **cond).image
+            scenes.render_scene((480, 640), [], np.random.default_rng(seed), extra=[(marker, hom_m)], **cond).image
         )
     return lookup, ours_imgs, aruco_imgs
 
@@ -66,7 +106,7 @@ def _timed(run: Callable[[], int], frames: int) -> tuple[float, int]:
 def main(frames: int = 100, passes: int = 5) -> None:
     lookup, ours_imgs, aruco_imgs = make_scenes(frames)
     dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
-    det = Detector(lookup)  # type: ignore[arg-type]
+    det = Detector(lookup)
     aruco = cv2.aruco.ArucoDetector(dictionary, cv2.aruco.DetectorParameters())
     for img in ours_imgs[:5]:
         det.detect(img)

@@ -1,47 +1,47 @@
 """Decode rate against tilt and distance: Order Type Tags beside ArUco 6×6, printed and plotted.
 
-Usage: OTTAG_AICHHOLZER_DIR=../shared/otdb python benchmarks/decode_sweeps.py [trials] [out.png]
+Usage: python benchmarks/decode_sweeps.py [trials] [out.png]
 A 21 cm data area seen by a 640×480 camera with f = 700 px; tilt sweep at 1.5 m, distance sweep
 at tilts 0–30°. Each condition renders ``trials`` scenes (random in-plane rotation, tilt axis,
 position near the centre, blur σ ≤ 0.8 px, noise σ ≤ 3, JPEG 85) twice: with an Order Type Tag
-(the 24 k = 8 reference sets of largest placed MP, project layout and placement) and with an
-ArUco DICT_6X6_250 marker of the same size. The plot is drawn with OpenCV (no matplotlib).
+(the 24 bundled k = 8 tags of largest MP, stored layout and placement, read from the bundled
+data imported into a temporary SQLite file as in ``decode_speed.py``) and with an ArUco
+DICT_6X6_250 marker of the same size. The plot is drawn with OpenCV (no matplotlib).
 """
 
 from __future__ import annotations
 
 import sys
+import tempfile
 from pathlib import Path
 
 import cv2
 import numpy as np
+from decode_speed import bundled_tags, drawable  # the benchmark next to this one
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from ottag_db.decode.detector import Detector
-from tests.support import tagsynth as ts
+from ottag_db.decode import Detector
+from ottag_db.printing import scenes
 
 SIZE = 0.21  # m
 F = 700.0
 
 
-def _rates(det, aruco, recs, cache, marker, rng, width_px, tilt_range, trials):  # type: ignore[no-untyped-def]
-    k_mat = ts.camera_matrix(F, 640, 480)
+def _rates(det, aruco, recs, marker, rng, width_px, tilt_range, trials):  # type: ignore[no-untyped-def]
+    k_mat = scenes.camera_matrix(F, 640, 480)
     ok_ours = ok_aruco = 0
     for _ in range(trials):
         rec = recs[int(rng.integers(len(recs)))]
-        dr = ts.drawable(rec, cache)
         tilt = rng.uniform(*tilt_range)
         center = (320 + rng.uniform(-30, 30), 240 + rng.uniform(-30, 30))
-        r_mat, t = ts.random_pose(rng, k_mat, SIZE, width_px, tilt, center)
-        hom = ts.pose_homography(k_mat, r_mat, t, SIZE)
+        r_mat, t = scenes.random_pose(rng, k_mat, SIZE, width_px, tilt, center)
+        hom = scenes.pose_homography(k_mat, r_mat, t, SIZE)
         cond = {"blur": rng.uniform(0, 0.8), "noise": rng.uniform(0, 3), "gradient": rng.uniform(0, 0.3), "jpeg": 85}
         seed = int(rng.integers(1 << 30))
-        spec = ts.TagSpec(np.asarray(rec["points"]), dr.triangles, hom, placement=dr.placement)
-        img = ts.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image
-        ok_ours += any(d.lambda_ == rec["lambda"] for d in det.detect(img))
+        spec = scenes.TagSpec(rec.points, rec.triangles, hom, placement=rec.placement)
+        img = scenes.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image
+        ok_ours += any(d.lambda_text == rec.lambda_text for d in det.detect(img))
         hom_m = hom @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
-        img_a = ts.render_scene((480, 640), [], np.random.default_rng(seed), extra=[(marker, hom_m)], **cond).image
+        img_a = scenes.render_scene((480, 640), [], np.random.default_rng(seed), extra=[(marker, hom_m)], **cond).image
         _, ids, _ = aruco.detectMarkers(img_a)
         ok_aruco += ids is not None and 5 in ids.ravel().tolist()
     return ok_ours / trials, ok_aruco / trials
@@ -77,14 +77,10 @@ def _plot(panel: np.ndarray, xs, ours, aru, title: str, xlabel: str) -> None:  #
 
 
 def main(trials: int = 30, out: str = "decode_sweeps.png") -> None:
-    folder = ts.aichholzer_dir()
-    if folder is None:
-        raise SystemExit("set OTTAG_AICHHOLZER_DIR to the folder with otypes05.b08 … otypes08.b08")
-    lookup, records = ts.reference_lookup(folder)
-    cache: dict[bytes, ts.Drawable] = {}
-    k8 = [r for r in records if r["k"] == 8]
-    k8.sort(key=lambda r: -float(r["mp"]))  # type: ignore[arg-type]
-    recs = k8[:24]
+    with tempfile.TemporaryDirectory() as tmp:
+        lookup, records = bundled_tags(Path(tmp))
+    k8 = sorted((r for r in records if r.k == 8), key=lambda r: -r.mp)
+    recs = [drawable(r) for r in k8[:24]]
     det = Detector(lookup)
     dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
     aruco = cv2.aruco.ArucoDetector(dictionary, cv2.aruco.DetectorParameters())
@@ -97,7 +93,7 @@ def main(trials: int = 30, out: str = "decode_sweeps.png") -> None:
     print(f"tilt sweep: 21 cm tag at {dist} m (data area {F * SIZE / dist:.0f} px frontal), {trials} trials each")
     print("tilt°   ours  ArUco")
     for tilt in tilts:
-        a, b = _rates(det, aruco, recs, cache, marker, rng, F * SIZE / dist, (tilt, tilt), trials)
+        a, b = _rates(det, aruco, recs, marker, rng, F * SIZE / dist, (tilt, tilt), trials)
         t_ours.append(a)
         t_aru.append(b)
         print(f"{tilt:5d}  {a:5.2f}  {b:5.2f}")
@@ -106,7 +102,7 @@ def main(trials: int = 30, out: str = "decode_sweeps.png") -> None:
     print(f"distance sweep: tilt 0–30°, {trials} trials each")
     print("dist m  px    ours  ArUco")
     for d in dists:
-        a, b = _rates(det, aruco, recs, cache, marker, rng, F * SIZE / d, (0, 30), trials)
+        a, b = _rates(det, aruco, recs, marker, rng, F * SIZE / d, (0, 30), trials)
         d_ours.append(a)
         d_aru.append(b)
         print(f"{d:5.1f}  {F * SIZE / d:4.0f}  {a:5.2f}  {b:5.2f}")

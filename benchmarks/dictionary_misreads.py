@@ -11,15 +11,13 @@ misreads accepted by the dictionary, and the share of the complete lookup's misr
 the dictionary rejects (target ≥ 90 %).
 
 Usage: python benchmarks/dictionary_misreads.py [--views 600] [--seed 1]
-Needs a database with every order type (the bundled data, or the reference files imported
-with --with-mirrors); it builds one in a temporary folder from $OTTAG_AICHHOLZER_DIR if set,
-else from the bundled data.
+Needs a database with every order type: it imports the bundled data with mirrors into a
+temporary SQLite file (the reference files hold the same order types).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import tempfile
 from pathlib import Path
 
@@ -27,25 +25,23 @@ import cv2
 import numpy as np
 
 from ottag_db.core.layout import compute_layout
-from ottag_db.decode.detector import Detector
-from ottag_db.printing.render import build_tag_geometry, raster_positions, render_raster
+from ottag_db.decode import Detector, DetectorParams
+from ottag_db.files.bundled import bundled_point_files
+from ottag_db.printing.geometry import build_tag_geometry
+from ottag_db.printing.raster import raster_positions, render_raster
 from ottag_db.store.db import open_database
-from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary, dictionary_lookup
+from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary
 from ottag_db.store.importer import import_point_file
+from ottag_db.store.lookups import dictionary_lookup
 
 
 def build_db(folder: Path, ks: tuple[int, ...]) -> Path:
+    """A database in ``folder`` with the bundled data (mirrors: every order type) and a D = 2
+    dictionary ``d2`` of the point counts ``ks``; returns its path."""
     path = folder / "misreads.sqlite"
     db = open_database(path)
     try:
-        ref = os.environ.get("OTTAG_AICHHOLZER_DIR")
-        if ref and Path(ref, "otypes08.b08").exists():
-            files = [(Path(ref) / f"otypes{k:02d}.b08", None) for k in range(3, 9)]
-        else:
-            from ottag_db.files.bundled import bundled_point_files
-
-            files = [(p, k) for p, k in bundled_point_files()]
-        for p, k in files:
+        for p, k in bundled_point_files():
             import_point_file(db, p, n=k, with_mirrors=True)
         create_dictionary(db, "d2", DictionaryOptions(ks=ks, min_flip_distance=2))
     finally:
@@ -98,9 +94,9 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         db = open_database(build_db(Path(tmp), tuple(args.k)))
         try:
-            full = Detector(dictionary_lookup(db, None), verify=False)
+            full = Detector(dictionary_lookup(db, None), DetectorParams(verify=False))
             d2_lookup = dictionary_lookup(db, "d2")
-            d2 = Detector(d2_lookup, verify=False)
+            d2 = Detector(d2_lookup, DetectorParams(verify=False))
             members = list(d2_lookup)
         finally:
             db.close()
@@ -126,16 +122,16 @@ def main() -> None:
                 got_full = full.detect(frame)
                 got_d2 = d2.detect(frame)
                 counts[0] += 1
-                counts[1] += any(d.lambda_ == entry.lambda_text for d in got_full)
-                wrong_full = [d for d in got_full if d.lambda_ != entry.lambda_text]
-                wrong_d2 = [d for d in got_d2 if d.lambda_ != entry.lambda_text]
+                counts[1] += any(d.lambda_text == entry.lambda_text for d in got_full)
+                wrong_full = [d for d in got_full if d.lambda_text != entry.lambda_text]
+                wrong_d2 = [d for d in got_d2 if d.lambda_text != entry.lambda_text]
                 counts[2] += bool(wrong_full)
                 counts[3] += bool(wrong_d2)
                 counts[4] += bool(wrong_full) and not wrong_d2
-                accepted_d2 = {d.lambda_ for d in wrong_d2}
+                accepted_d2 = {d.lambda_text for d in wrong_d2}
                 for d in wrong_full:
                     where = "other k" if d.k != entry.k else "same k"
-                    kinds[where + (", accepted by D2" if d.lambda_ in accepted_d2 else ", rejected by D2")] += 1
+                    kinds[where + (", accepted by D2" if d.lambda_text in accepted_d2 else ", rejected by D2")] += 1
             share = counts[4] / counts[2] if counts[2] else float("nan")
             print(
                 f"{blur:>5.1f} {noise:>5.0f} {quality:>4d} {width:>4.0f} {counts[0]:>6d} {counts[1]:>8d} "

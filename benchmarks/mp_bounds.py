@@ -30,12 +30,13 @@ from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.geometry import maximal_perturbations
 from ottag_db.errors import OttagError
 from ottag_db.files.pointfile import read_point_file
-from ottag_db.generation import realize
+from ottag_db.generation.effort import RealizeEffort
+from ottag_db.generation.realize import realize_all
 
 #: The targets of issue #3: k → the MP thresholds that must hold for every set / many sets.
 TARGETS: dict[int, tuple[float, ...]] = {7: (4.0, 6.0), 8: (2.0,)}
 
-HEAVY = realize.RealizeEffort(
+HEAVY = RealizeEffort(
     starts=20,
     hops=40,
     roundings=64,
@@ -69,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
         ints: list[float] = []
         for rec, text in zip(idx.tolist(), texts, strict=True):
             t0 = time.perf_counter()
-            one = realize.realize_all([pts[rec]], [text], seed=args.seed, efforts={k: HEAVY})[0]
+            one = realize_all([pts[rec]], [text], seed=args.seed, efforts={k: HEAVY})[0]
             best_int = max(one.mp, float(mps[rec]))
             conts.append(one.continuous_mp)
             ints.append(best_int)

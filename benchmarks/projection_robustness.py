@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.canonical import canonical_batch
+from ottag_db.core.geometry import triple_figures
 from ottag_db.files.pointfile import read_point_file
 
 __all__ = [
@@ -95,17 +96,6 @@ def project(points: NDArray[np.float64], sweep: CameraSweep) -> NDArray[np.int64
     return pix
 
 
-def _in_general_position(pix: NDArray[np.int64]) -> NDArray[np.bool_]:
-    """``(B,)``: no collinear triple and no repeated point (exact integer test)."""
-    k = pix.shape[1]
-    rows = [(a, b, c) for a in range(k) for b in range(a + 1, k) for c in range(b + 1, k)]
-    a, b, c = (np.array(v) for v in zip(*rows, strict=True))
-    pa, pb, pc = pix[:, a], pix[:, b], pix[:, c]
-    d = (pb[..., 0] - pa[..., 0]) * (pc[..., 1] - pa[..., 1]) - (pb[..., 1] - pa[..., 1]) * (pc[..., 0] - pa[..., 0])
-    ok: NDArray[np.bool_] = (d != 0).all(axis=1)
-    return ok
-
-
 @dataclass(frozen=True)
 class SweepResult:
     """Outcome of one sweep over one file: sets, images, successes and failures per view."""
@@ -141,7 +131,8 @@ def run_sweep(points: NDArray[np.int64], sweep: CameraSweep) -> SweepResult:
         pix = project(pts[part], sweep)  # (b, V, k, 2)
         b = pix.shape[0]
         flat = pix.reshape(b * n_views, k, 2)
-        ok = _in_general_position(flat)
+        # No collinear triple and no repeated point; exact for integer pixels (below 2**26).
+        ok = (triple_figures(flat)[0] != 0).all(axis=1)
         same = np.zeros(b * n_views, dtype=bool)
         good = np.flatnonzero(ok)
         if good.size:

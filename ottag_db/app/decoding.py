@@ -13,8 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.placement import tag_placement
-from ottag_db.decode.detector import Detection, Detector
-from ottag_db.decode.pose import estimate_pose
+from ottag_db.decode import Detection, Detector, estimate_pose, to_gray
 from ottag_db.errors import DecodeError, UsageError
 
 __all__ = ["Camera", "decode_file", "detection_json", "draw_detections", "load_camera", "read_image"]
@@ -29,8 +28,19 @@ class Camera:
 
 
 def load_camera(path: str | os.PathLike[str]) -> Camera:
-    """Read intrinsics from JSON (``camera_matrix`` + optional ``dist_coeffs``, or ``fx``, ``fy``,
-    ``cx``, ``cy``) or an OpenCV YAML/XML file (``camera_matrix``, ``distortion_coefficients``)."""
+    """Read camera intrinsics; raises :class:`UsageError` for a missing or malformed file.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        JSON (``camera_matrix`` + optional ``dist_coeffs``, or ``fx``, ``fy``, ``cx``, ``cy``) or
+        an OpenCV YAML/XML file (``camera_matrix``, ``distortion_coefficients``).
+
+    Returns
+    -------
+    Camera
+        The 3×3 matrix (pixels) and the distortion coefficients (zeros when absent).
+    """
     p = Path(path)
     if not p.is_file():
         raise UsageError(f"{p}: camera file not found")
@@ -66,7 +76,18 @@ def load_camera(path: str | os.PathLike[str]) -> Camera:
 
 
 def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
-    """Read an image file as stored (8/16-bit, grey/BGR/BGRA); raises :class:`DecodeError`."""
+    """Read an image file as stored; raises :class:`DecodeError` for a missing or unreadable file.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        An image file OpenCV reads (PNG, JPEG, TIFF, BMP, …).
+
+    Returns
+    -------
+    numpy.ndarray
+        The pixels as stored: 8/16-bit, grey ``(H, W)``, BGR or BGRA ``(H, W, 3|4)``.
+    """
     p = Path(path)
     if not p.exists():
         raise DecodeError(f"{p}: no such file")
@@ -85,9 +106,26 @@ def _arr(a: NDArray[np.float64] | None, digits: int = 3) -> Any:
 def detection_json(
     d: Detection, *, camera: Camera | None = None, tag_size: float | None = None, number: int | None = None
 ) -> dict[str, Any]:
-    """The JSON object of one detection (see the README's contract); pose when asked."""
+    """The JSON object of one detection (see the README's contract); pose when asked.
+
+    Parameters
+    ----------
+    d : Detection
+        The detection (its ID goes out under the key ``"lambda"``).
+    camera : Camera or None
+        Intrinsics; with ``tag_size`` adds ``"pose"``.
+    tag_size : float or None
+        Data-area side (mm), the unit of the pose's translation.
+    number : int or None
+        The order type's universal number.
+
+    Returns
+    -------
+    dict
+        JSON-ready values (coordinates rounded to 3 decimals, image pixels).
+    """
     out: dict[str, Any] = {
-        "lambda": d.lambda_,
+        "lambda": d.lambda_text,
         "k": d.k,
         "order_type": d.order_type_id,
         "number": number,
@@ -123,9 +161,17 @@ def detection_json(
 
 
 def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path) -> None:
-    """Write ``image`` with data-area outlines, labelled points and IDs to ``out``."""
-    from ottag_db.decode.detector import to_gray
+    """Write ``image`` with data-area outlines, labelled points and IDs to ``out``.
 
+    Parameters
+    ----------
+    image : numpy.ndarray
+        The decoded image (any array :func:`~ottag_db.decode.to_gray` accepts).
+    detections : list of Detection
+        What to draw.
+    out : Path
+        The image file to write; raises :class:`DecodeError` when it cannot be written.
+    """
     canvas = cv2.cvtColor(to_gray(image), cv2.COLOR_GRAY2BGR)
     for d in detections:
         quad = np.round(d.corners).astype(np.int32)
@@ -154,7 +200,24 @@ def decode_file(
     """Decode one image file into ``{"image", "detections", "rejected"}`` (plus ``"error"``).
 
     An unreadable file gives a record with ``"error"`` instead of raising, so a batch goes on.
-    ``numbers`` maps order-type ids to universal numbers for the output.
+
+    Parameters
+    ----------
+    detector : Detector
+        The configured detector.
+    path : str or PathLike
+        The image file.
+    camera, tag_size : Camera, float or None
+        Pose for every detection when both are given (see :func:`detection_json`).
+    draw_dir : Path or None
+        Folder for the annotated drawing ``<stem>_decoded.png``.
+    numbers : dict or None
+        Order-type id → universal number for the output.
+
+    Returns
+    -------
+    dict
+        ``{"image", "detections", "rejected", "rejections"}`` (the README's contract).
     """
     record: dict[str, Any] = {"image": str(path), "detections": [], "rejected": 0}
     try:
@@ -172,7 +235,7 @@ def decode_file(
     ]
     record["rejected"] = len(rejected)
     record["rejections"] = [
-        {"reason": r.reason, "polarity": r.polarity, "lambda": r.lambda_, "detail": r.detail} for r in rejected
+        {"reason": r.reason, "polarity": r.polarity, "lambda": r.lambda_text, "detail": r.detail} for r in rejected
     ]
     if draw_dir is not None:
         draw_detections(image, detections, draw_dir / (Path(path).stem + "_decoded.png"))

@@ -9,27 +9,46 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
-from ottag_db.core.canonical import lambda_text, parse_lambda_text
-from ottag_db.core.types import Polarity, ProgressCallback
+from ottag_db.core import canonical
+from ottag_db.core.types import POLARITIES, Polarity, ProgressCallback
 from ottag_db.errors import ExportError, NotFoundError, UsageError
-from ottag_db.printing.render import TagGeometry, build_tag_geometries, render_raster, render_svg
+from ottag_db.printing.geometry import TagGeometry, build_tag_geometries
+from ottag_db.printing.output import check_writable
+from ottag_db.printing.raster import render_raster
 from ottag_db.printing.sheet import SheetOptions, SheetReport, SheetTag, write_tag_sheet
+from ottag_db.printing.svg import render_svg
 from ottag_db.store.db import Database
+from ottag_db.store.dictionaries import get_dictionary
 from ottag_db.store.tags import TagRecord, select_tags
 
-__all__ = ["TagFilter", "export_sheet", "render_tag", "resolve_tag", "short_id", "tag_geometries"]
+__all__ = [
+    "TagFilter",
+    "export_sheet",
+    "render_tag",
+    "resolve_tag",
+    "select_for_export",
+    "short_id",
+    "tag_geometries",
+]
 
 
-def short_id(lambda_txt: str) -> str:
-    """Short printable form of an ID: ``k-`` and the first 8 hex digits of SHA-256 of the text ID.
+def short_id(lambda_text: str) -> str:
+    """Short printable form of an ID, stable wherever the database is built.
 
-    Stable wherever the database is built (it depends on the canonical λ only).
+    Parameters
+    ----------
+    lambda_text : str
+        Canonical ID in text form ``k:digits``.
+
+    Returns
+    -------
+    str
+        ``k-`` and the first 8 hex digits of the SHA-256 of ``lambda_text``.
     """
-    k = lambda_txt.split(":", 1)[0]
-    return f"{k}-{hashlib.sha256(lambda_txt.encode('ascii')).hexdigest()[:8]}"
+    k = lambda_text.split(":", 1)[0]
+    return f"{k}-{hashlib.sha256(lambda_text.encode('ascii')).hexdigest()[:8]}"
 
 
 @dataclass(frozen=True)
@@ -62,32 +81,74 @@ def _split_ids(ids: Sequence[str]) -> tuple[list[int], list[str]]:
         if ident.strip().isdigit():
             numbers.append(int(ident))
         else:
-            texts.append(lambda_text(parse_lambda_text(ident)))
+            texts.append(canonical.lambda_text(canonical.parse_lambda_text(ident)))
     return numbers, texts
 
 
 def select_for_export(db: Database, flt: TagFilter) -> list[TagRecord]:
-    """Tags matching ``flt``; raises :class:`ExportError` when nothing matches."""
+    """Tags matching ``flt`` (only reads the database).
+
+    Parameters
+    ----------
+    db : Database
+        An open database (may be read-only).
+    flt : TagFilter
+        Which tags; IDs may be given as database ids and as text IDs together.
+
+    Returns
+    -------
+    list of TagRecord
+        Ordered by k, then canonical λ.
+
+    Raises
+    ------
+    ExportError
+        Nothing matches.
+    """
     numbers, texts = _split_ids(flt.ids)
-    common = {"ks": flt.ks, "min_mp": flt.min_mp, "matchable": flt.matchable}
+
+    def pick(lambdas: Sequence[str], ids: Sequence[int]) -> list[TagRecord]:
+        return select_tags(db, ks=flt.ks, min_mp=flt.min_mp, matchable=flt.matchable, lambdas=lambdas, ids=ids)
+
     if numbers and texts:
         # IDs given both ways: keep the tags matching either form.
-        both = select_tags(db, ids=numbers, **common) + select_tags(db, lambdas=texts, **common)  # type: ignore[arg-type]
+        both = pick((), numbers) + pick(texts, ())
         tags = sorted({t.order_type_id: t for t in both}.values(), key=lambda t: (t.k, t.lambda_text))
     else:
-        tags = select_tags(db, lambdas=texts, ids=numbers, **common)  # type: ignore[arg-type]
+        tags = pick(texts, numbers)
     if not tags:
         raise ExportError(f"no tags match the filters ({flt.summary()}); nothing written")
     return tags
 
 
 def tag_geometries(tags: Sequence[TagRecord], polarity: Polarity, tag_size: float) -> list[TagGeometry]:
-    """Geometries of ``tags`` in their order (batched by k)."""
+    """Geometries of ``tags`` from their stored layouts and placements (nothing is recomputed).
+
+    Parameters
+    ----------
+    tags : sequence of TagRecord
+        Tags as read by :func:`ottag_db.store.tags.select_tags`.
+    polarity : {"normal", "inverted"}
+        Tones of every geometry.
+    tag_size : float
+        Data-area side, mm.
+
+    Returns
+    -------
+    list of TagGeometry
+        One per tag, in the order of ``tags``.
+    """
     out: list[TagGeometry | None] = [None] * len(tags)
     for k in sorted({t.k for t in tags}):
         idx = [i for i, t in enumerate(tags) if t.k == k]
         pts = np.stack([tags[i].points for i in idx]).astype(np.float64)
-        geoms = build_tag_geometries(pts, [tags[i].triangles for i in idx], polarity=polarity, tag_size=tag_size)
+        geoms = build_tag_geometries(
+            pts,
+            [tags[i].triangles for i in idx],
+            polarity=polarity,
+            tag_size=tag_size,
+            placements=np.stack([tags[i].placement for i in idx]),
+        )
         for i, g in zip(idx, geoms, strict=True):
             out[i] = g
     return [g for g in out if g is not None]
@@ -103,20 +164,49 @@ def export_sheet(
     dictionary: str | None = None,
     progress: ProgressCallback | None = None,
 ) -> SheetReport:
-    """Write a PDF tag sheet of the selected tags; ``polarity`` is normal, inverted or both.
+    """Write a PDF tag sheet of the selected tags (the database is only read).
 
     With ``both`` each tag is followed by its inverted variant. The filter summary and the
     polarity are printed on every page. With ``dictionary`` the sheet holds that
     dictionary's members in number order (each in its own polarity, labelled with its tag
     number), narrowed by ``flt``.
+
+    Parameters
+    ----------
+    db : Database
+        An open database (may be read-only).
+    out : str or PathLike
+        The PDF file.
+    flt : TagFilter
+        Which tags.
+    options : SheetOptions
+        Sheet settings (its ``filter_summary`` is replaced by the filter's).
+    polarity : {"normal", "inverted", "both"}
+        Tones of the tags.
+    dictionary : str, optional
+        Print this dictionary's members instead.
+    progress : ProgressCallback, optional
+        ``progress(done, total)`` in tags, after each page.
+
+    Returns
+    -------
+    SheetReport
+        What was written.
+
+    Raises
+    ------
+    UsageError
+        Bad polarity or sizes.
+    ExportError
+        Nothing matches, a tag does not fit, or the file cannot be written.
     """
     if polarity not in ("normal", "inverted", "both"):
         raise UsageError(f"polarity must be normal, inverted or both, got {polarity!r}")
-    _check_writable(Path(out))
+    check_writable(Path(out))
     if dictionary is not None:
         return _export_dictionary_sheet(db, out, dictionary, flt, options, progress)
     tags = select_for_export(db, flt)
-    polarities: list[Polarity] = ["normal", "inverted"] if polarity == "both" else [polarity]  # type: ignore[list-item]
+    polarities: list[Polarity] = list(POLARITIES) if polarity == "both" else [polarity]  # type: ignore[list-item]
     placed = tag_geometries(tags, polarities[0], options.tag_size_mm)  # place once, recolour below
     per_pol = {p: [g.with_polarity(p) for g in placed] for p in polarities}
     sheet_tags = [
@@ -137,8 +227,6 @@ def _export_dictionary_sheet(
     options: SheetOptions,
     progress: ProgressCallback | None,
 ) -> SheetReport:
-    from ottag_db.store.dictionaries import get_dictionary
-
     info = get_dictionary(db, name)
     allowed = {t.order_type_id for t in select_tags(db, ks=flt.ks, min_mp=flt.min_mp, matchable=flt.matchable)}
     if flt.ids:
@@ -161,18 +249,26 @@ def _export_dictionary_sheet(
     return write_tag_sheet(out, sheet_tags, dataclasses.replace(options, filter_summary=summary), progress=progress)
 
 
-def _check_writable(path: Path) -> None:
-    parent = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise ExportError(f"{path}: is a directory; give a file name")
-    if not parent.exists():
-        raise ExportError(f"{path}: the folder {parent} does not exist")
-    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise ExportError(f"{path}: cannot write there (permission denied)")
-
-
 def resolve_tag(db: Database, ident: str) -> TagRecord:
-    """The tag of one order type given by text ID or database id."""
+    """The tag of one order type (only reads the database).
+
+    Parameters
+    ----------
+    db : Database
+        An open database (may be read-only).
+    ident : str
+        Text ID ``k:digits`` (any labeling) or database id.
+
+    Returns
+    -------
+    TagRecord
+        Its best realization with stored layout and placement.
+
+    Raises
+    ------
+    NotFoundError
+        Unknown ID, or an order type without a layout (k = 4).
+    """
     numbers, texts = _split_ids([ident])
     tags = select_tags(db, lambdas=texts, ids=numbers)
     if not tags:
@@ -183,7 +279,35 @@ def resolve_tag(db: Database, ident: str) -> TagRecord:
 def render_tag(
     db: Database, ident: str, out: str | os.PathLike[str], *, px: int = 400, polarity: str = "normal"
 ) -> TagGeometry:
-    """Render one tag to PNG (raster, data area ``px`` pixels wide) or SVG (mm, 50 mm tag)."""
+    """Render one tag to PNG (raster, data area ``px`` pixels wide) or SVG (mm, 50 mm tag).
+
+    Parameters
+    ----------
+    db : Database
+        An open database (may be read-only).
+    ident : str
+        Text ID or database id (see :func:`resolve_tag`).
+    out : str or PathLike
+        A ``.png`` or ``.svg`` file.
+    px : int
+        Data-area side in pixels of the PNG (≥ 16).
+    polarity : {"normal", "inverted"}
+        Tones of the tag.
+
+    Returns
+    -------
+    TagGeometry
+        The geometry drawn.
+
+    Raises
+    ------
+    UsageError
+        Another suffix, a bad polarity or ``px``.
+    NotFoundError
+        Unknown ID or k = 4.
+    ExportError
+        The file cannot be written.
+    """
     path = Path(out)
     suffix = path.suffix.lower()
     if suffix not in (".png", ".svg"):
@@ -192,12 +316,14 @@ def render_tag(
         raise UsageError(f"polarity must be normal or inverted, got {polarity!r}")
     if px < 16:
         raise UsageError(f"--px must be at least 16, got {px}")
-    _check_writable(path)
+    check_writable(path)
     tag = resolve_tag(db, ident)
     geom = tag_geometries([tag], polarity, 50.0)[0]  # type: ignore[arg-type]
     if suffix == ".svg":
         path.write_text(render_svg(geom, title=tag.lambda_text), encoding="utf-8")
     else:
+        import cv2  # only PNG output needs OpenCV
+
         img = render_raster(geom, px)
         if not cv2.imwrite(str(path), img):
             raise ExportError(f"{path}: could not write the PNG")

@@ -106,6 +106,17 @@ def canonicalize_lambdas(lam: NDArray[np.integer]) -> CanonicalBatch:
     Row 0 is ``0, n−2, …, 0`` for every ordering, so the comparison starts at row 1 and
     goes on row by row only for the sets whose orderings still tie: most sets are decided
     by their first rows, which keeps the work close to ``O(B·n²)``.
+
+    Parameters
+    ----------
+    lam : ndarray of int, shape (B, n, n)
+        λ-matrices of sets in general position (see
+        :func:`~ottag_db.core.geometry.lambda_matrices`).
+
+    Returns
+    -------
+    CanonicalBatch
+        Canonical λ-matrices (the IDs), labelings, minimal-ordering counts and hull sizes.
     """
     lam = np.asarray(lam)
     b, n, _ = lam.shape
@@ -138,13 +149,35 @@ def canonicalize_lambdas(lam: NDArray[np.integer]) -> CanonicalBatch:
 
 
 def canonical_batch(points: ArrayLike) -> CanonicalBatch:
-    """Canonical IDs of a ``(B, n, 2)`` batch of point sets in general position."""
+    """Canonical IDs of a batch of point sets.
+
+    Parameters
+    ----------
+    points : array_like, shape (B, n, 2)
+        Point sets in general position (any units; screen coordinates).
+
+    Returns
+    -------
+    CanonicalBatch
+        Canonical data of every set (see :func:`canonicalize_lambdas`).
+    """
     pts, _ = as_point_batch(points)
     return canonicalize_lambdas(lambda_matrices(pts))
 
 
 def canonical_form(points: ArrayLike) -> CanonicalForm:
-    """Canonical ID, labeling, minimal-ordering count and hull size of one ``(n, 2)`` set."""
+    """Canonical ID, labeling, minimal-ordering count and hull size of one set.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        One point set in general position (any units; screen coordinates).
+
+    Returns
+    -------
+    CanonicalForm
+        Its canonical data.
+    """
     pts = np.asarray(points)
     if pts.ndim != 2:
         raise ValueError("canonical_form takes one point set of shape (n, 2)")
@@ -158,15 +191,34 @@ def canonical_form(points: ArrayLike) -> CanonicalForm:
 
 
 def canonical_lambda(points: ArrayLike) -> str:
-    """Canonical ID of one ``(n, 2)`` point set in the text form ``k:digits``."""
+    """Canonical ID of one point set.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        One point set in general position (any units; screen coordinates).
+
+    Returns
+    -------
+    str
+        The ID in the text form ``k:digits``.
+    """
     return canonical_form(points).text
 
 
 def canonical_orderings(points: ArrayLike) -> list[tuple[tuple[int, ...], NDArray[np.int8]]]:
     """All canonical orderings of one set with their λ-matrices, smallest matrix first.
 
-    Each item is ``(labeling, matrix)`` where ``labeling[l]`` is the input index of the
-    point with label ``l``.
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        One point set in general position (any units; screen coordinates).
+
+    Returns
+    -------
+    list of (tuple of int, ndarray of int8)
+        One ``(labeling, matrix)`` per hull vertex, smallest ``(n, n)`` matrix first;
+        ``labeling[l]`` is the input index of the point with label ``l``.
     """
     return lambda_orderings(lambda_matrices(np.asarray(points)[None])[0])
 
@@ -176,6 +228,16 @@ def lambda_orderings(lam: NDArray[np.integer]) -> list[tuple[tuple[int, ...], ND
 
     A single-set path (no batch set-up): from hull vertex ``h`` point ``j`` gets label
     ``n − 1 − λ(h, j)`` (see :func:`_orderings_from_lambdas`); ties keep hull-vertex order.
+
+    Parameters
+    ----------
+    lam : ndarray of int, shape (n, n)
+        λ-matrix of one set in general position.
+
+    Returns
+    -------
+    list of (tuple of int, ndarray of int8)
+        As :func:`canonical_orderings`.
     """
     lam = np.asarray(lam, dtype=np.int64)
     n = lam.shape[0]
@@ -191,7 +253,18 @@ def lambda_orderings(lam: NDArray[np.integer]) -> list[tuple[tuple[int, ...], ND
 
 
 def mirror_lambdas(lam: NDArray[np.integer]) -> NDArray[np.int8]:
-    """λ-matrices of the mirror images: left and right swap, so λ' = n − 2 − λ off the diagonal."""
+    """λ-matrices of the mirror images: left and right swap, so λ' = n − 2 − λ off the diagonal.
+
+    Parameters
+    ----------
+    lam : ndarray of int, shape (..., n, n)
+        λ-matrices.
+
+    Returns
+    -------
+    ndarray of int8, shape (..., n, n)
+        The mirror images' λ-matrices (same labels, diagonal 0).
+    """
     lam = np.asarray(lam)
     n = lam.shape[-1]
     out: NDArray[np.int8] = (n - 2 - lam).astype(np.int8)
@@ -201,13 +274,37 @@ def mirror_lambdas(lam: NDArray[np.integer]) -> NDArray[np.int8]:
 
 
 def relabel_lambda(lam: NDArray[np.integer], labeling: ArrayLike) -> NDArray[np.int8]:
-    """λ-matrix after relabeling: entry (a, b) is λ(labeling[a], labeling[b])."""
+    """λ-matrix after relabeling: entry (a, b) is λ(labeling[a], labeling[b]).
+
+    Parameters
+    ----------
+    lam : ndarray of int, shape (n, n)
+        A λ-matrix.
+    labeling : array_like of int, shape (n,)
+        ``labeling[a]`` is the old index of the point with new label ``a``.
+
+    Returns
+    -------
+    ndarray of int8, shape (n, n)
+        The relabeled matrix.
+    """
     perm = np.asarray(labeling, dtype=np.int64)
     return np.asarray(lam)[np.ix_(perm, perm)].astype(np.int8)
 
 
 def lambda_texts(lams: NDArray[np.integer]) -> list[str]:
-    """Text forms ``k:digits`` of a ``(B, k, k)`` stack of λ-matrices."""
+    """Text forms of a stack of λ-matrices.
+
+    Parameters
+    ----------
+    lams : ndarray of int, shape (B, k, k)
+        λ-matrices with entries 0 … 9 (k ≤ 10).
+
+    Returns
+    -------
+    list of str
+        ``k:digits`` per matrix (row-major, diagonal 0).
+    """
     lams = np.asarray(lams)
     b, k, _ = lams.shape
     if k > 10:
@@ -219,12 +316,39 @@ def lambda_texts(lams: NDArray[np.integer]) -> list[str]:
 
 
 def lambda_text(lam: NDArray[np.integer]) -> str:
-    """Text form ``k:digits`` of one ``(k, k)`` λ-matrix (row-major, diagonal 0)."""
+    """Text form of one λ-matrix.
+
+    Parameters
+    ----------
+    lam : ndarray of int, shape (k, k)
+        A λ-matrix (k ≤ 10).
+
+    Returns
+    -------
+    str
+        ``k:digits`` (row-major, diagonal 0).
+    """
     return lambda_texts(np.asarray(lam)[None])[0]
 
 
 def parse_lambda_text(text: str) -> NDArray[np.int8]:
-    """Parse ``k:digits`` back into a ``(k, k)`` int8 matrix; raises :class:`LambdaFormatError`."""
+    """Parse an ID text back into its λ-matrix.
+
+    Parameters
+    ----------
+    text : str
+        ``k:digits`` with 3 ≤ k ≤ 10 and ``k²`` digits (surrounding blanks ignored).
+
+    Returns
+    -------
+    ndarray of int8, shape (k, k)
+        The λ-matrix.
+
+    Raises
+    ------
+    LambdaFormatError
+        When ``text`` is not of that form or its diagonal is not 0.
+    """
     head, sep, digits = text.strip().partition(":")
     if not sep or not head.isdigit():
         raise LambdaFormatError(f"{text!r} is not an ID of the form k:digits (e.g. 3:010001100)")

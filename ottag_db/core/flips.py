@@ -4,16 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ottag_db.core.canonical import canonicalize_lambdas
-from ottag_db.core.geometry import as_point_batch, orientation_tensor
+from ottag_db.core.geometry import as_point_batch, orientation_tensor, triple_indices
 from ottag_db.core.types import ProgressCallback
 
-__all__ = ["FlipEdge", "flip_neighbours", "triple_index"]
+__all__ = ["FlipEdge", "flip_neighbours"]
 
 
 @dataclass(frozen=True)
@@ -28,11 +27,6 @@ class FlipEdge:
     source: int
     target: int
     triple: tuple[int, int, int]
-
-
-def triple_index(k: int) -> NDArray[np.intp]:
-    """``(C(k,3), 3)`` array of the triples ``a < b < c``."""
-    return np.array(list(combinations(range(k), 3)), dtype=np.intp).reshape(-1, 3)
 
 
 def flip_neighbours(
@@ -52,15 +46,34 @@ def flip_neighbours(
     is confirmed by comparing all orientations of the flipped chirotope, relabeled by the
     canonical labeling found, with the stored realization's. Flipped chirotopes that are
     not realizable (no realization in the list) yield no edge.
+
+    Parameters
+    ----------
+    canonical_points : array_like, shape (B, k, 2)
+        One realization per order type (any units, screen coordinates), rows in canonical
+        label order.
+    texts : sequence of str
+        Canonical IDs ``k:digits`` of the ``B`` order types, in the same order.
+    index_of : mapping of str to int, optional
+        ID → index into ``texts``; built from ``texts`` when None.
+    chunk : int, optional
+        (order type, triple) pairs evaluated per batch (bounds the memory).
+    progress : ProgressCallback, optional
+        ``progress(done, total)`` in (order type, triple) pairs, after each batch.
+
+    Returns
+    -------
+    list of FlipEdge
+        Every confirmed edge, ordered by source then triple (the reverse of an edge is
+        found from its target).
     """
     pts, _ = as_point_batch(canonical_points)
     b, k, _ = pts.shape
     lookup = dict(index_of) if index_of is not None else {t: i for i, t in enumerate(texts)}
     left = orientation_tensor(pts) < 0  # (B, k, k, k)
     lam = left.sum(axis=3).astype(np.int8)
-    triples = triple_index(k)
-    m = triples.shape[0]
-    a, bb, c = triples[:, 0], triples[:, 1], triples[:, 2]
+    a, bb, c = triple_indices(k)
+    m = a.size
     edges: list[FlipEdge] = []
     pairs = [(s, t) for s in range(b) for t in range(m)]
     for start in range(0, len(pairs), chunk):

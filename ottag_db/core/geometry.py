@@ -1,8 +1,14 @@
-"""Batched plane geometry of point sets: orientations, λ-matrices, hulls and MP (no I/O)."""
+"""Batched plane geometry of point sets: orientations, λ-matrices, hulls and MP (no I/O).
+
+Conventions: screen coordinates (x right, y down); ``p`` is *left* of the directed line
+``p_i → p_j`` when ``(xj−xi)(yp−yi) − (yj−yi)(xp−xi) < 0``. Lengths are in the units of the
+input coordinates (grid units for point-file coordinates).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -10,6 +16,8 @@ from numpy.typing import ArrayLike, NDArray
 from ottag_db.errors import GeneralPositionError
 
 __all__ = [
+    "PointSetAnalysis",
+    "analyse_point_sets",
     "as_point_batch",
     "check_general_position",
     "general_position_mask",
@@ -20,14 +28,30 @@ __all__ = [
     "maximal_perturbation",
     "maximal_perturbations",
     "orientation_tensor",
+    "triple_figures",
+    "triple_indices",
+    "triple_orientations",
 ]
+
+TripleIndex = tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]
 
 
 def as_point_batch(points: ArrayLike) -> tuple[NDArray[np.float64], bool]:
-    """Return ``points`` as a float64 ``(B, n, 2)`` array and whether the input was one set.
+    """Return ``points`` as a float64 ``(B, n, 2)`` batch and whether the input was one set.
 
-    Integer coordinates up to 16 bits are represented exactly; every orientation computed
-    from them below is exact too (products stay below 2**53).
+    Parameters
+    ----------
+    points : array_like
+        One set ``(n, 2)`` or a batch ``(B, n, 2)`` of ``n ≥ 3`` points (any units).
+
+    Returns
+    -------
+    batch : ndarray of float64, shape (B, n, 2)
+        The coordinates, C-contiguous. Integer coordinates up to 16 bits are represented
+        exactly, and every orientation computed from them in this module is exact too
+        (products stay below 2**53).
+    single : bool
+        True when ``points`` was one ``(n, 2)`` set (then ``B = 1``).
     """
     arr = np.asarray(points)
     single = arr.ndim == 2
@@ -40,13 +64,115 @@ def as_point_batch(points: ArrayLike) -> tuple[NDArray[np.float64], bool]:
     return np.ascontiguousarray(arr, dtype=np.float64), single
 
 
+# A pure constant table of n (no state): cached so the hot loops of the generator do not
+# rebuild it per call; the arrays are read-only, so sharing them cannot leak changes.
+@cache
+def triple_indices(n: int) -> TripleIndex:
+    """The index triples ``a < b < c`` of ``n`` points, in lexicographic order.
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+
+    Returns
+    -------
+    a, b, c : ndarray of intp, shape (C(n, 3),) each
+        Read-only; triple ``t`` is ``(a[t], b[t], c[t])``. The order is the one of
+        ``itertools.combinations(range(n), 3)``.
+    """
+    idx = np.arange(n)
+    ga, gb, gc = np.meshgrid(idx, idx, idx, indexing="ij")
+    keep = (ga < gb) & (gb < gc)
+    out = (ga[keep], gb[keep], gc[keep])
+    for arr in out:
+        arr.flags.writeable = False
+    return out
+
+
+def triple_orientations(points: ArrayLike) -> NDArray[np.float64]:
+    """:func:`orientation_tensor` at the triples ``a < b < c`` only, without the ``n³`` tensor.
+
+    The same products form and the same order of additions, so the values are bit-for-bit
+    those of ``orientation_tensor(points)[:, a, b, c]`` (exact for integer coordinates below
+    2**16, identical roundings for real-valued ones).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2) or (B, n, 2)
+        Point sets (any units, screen coordinates).
+
+    Returns
+    -------
+    ndarray of float64, shape (B, C(n, 3))
+        ``D[b, t]`` in squared units, triples in the order of :func:`triple_indices`;
+        ``c`` is left of ``a → b`` when ``D < 0``.
+    """
+    pts, _ = as_point_batch(points)
+    x = pts[..., 0]
+    y = pts[..., 1]
+    a, b, c = triple_indices(pts.shape[1])
+    m_ab = x[:, a] * y[:, b] - y[:, a] * x[:, b]
+    m_bc = x[:, b] * y[:, c] - y[:, b] * x[:, c]
+    m_ca = x[:, c] * y[:, a] - y[:, c] * x[:, a]
+    d: NDArray[np.float64] = m_ab + m_bc + m_ca
+    return d
+
+
+def triple_figures(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Signed orientation and longest side of every triple ``a < b < c`` of each set.
+
+    The orientation is computed in the differences form
+    ``D = (xb−xa)(yc−ya) − (yb−ya)(xc−xa)`` (twice the signed area; ``c`` is left of
+    ``a → b`` when ``D < 0``, screen coordinates), from the same side vectors as the
+    longest side. The smallest height of the triangle is ``|D| / longest``, so half the
+    minimum of it over all triples is the MP. Exact for integer coordinates below 2**16,
+    where it equals :func:`triple_orientations`; for real-valued points the two forms round
+    differently. The generator's continuous optimisation uses this form and its results
+    (the bundled data) depend on those roundings, so both forms are kept.
+
+    Parameters
+    ----------
+    points : array_like, shape (..., n, 2)
+        Point sets with any leading batch dimensions (any units, e.g. grid units).
+
+    Returns
+    -------
+    orientation : ndarray of float64, shape (..., C(n, 3))
+        ``D`` of each triple in the order of :func:`triple_indices` (squared units).
+    longest : ndarray of float64, shape (..., C(n, 3))
+        Length of the longest side of each triple (units of ``points``).
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    a, b, c = triple_indices(pts.shape[-2])
+    pa, pb, pc = pts[..., a, :], pts[..., b, :], pts[..., c, :]
+    ab = pb - pa
+    ac = pc - pa
+    bc = pc - pb
+    d: NDArray[np.float64] = ab[..., 0] * ac[..., 1] - ab[..., 1] * ac[..., 0]
+    longest: NDArray[np.float64] = np.sqrt(
+        np.maximum(np.maximum((ab * ab).sum(-1), (ac * ac).sum(-1)), (bc * bc).sum(-1))
+    )
+    return d, longest
+
+
 def orientation_tensor(points: ArrayLike) -> NDArray[np.float64]:
-    """Signed orientation ``D[b, i, j, p] = (xj−xi)(yp−yi) − (yj−yi)(xp−xi)``.
+    """Signed orientation ``D[b, i, j, p] = (xj−xi)(yp−yi) − (yj−yi)(xp−xi)`` of every triple.
 
     Screen convention (x right, y down): ``p`` is *left* of the directed line
     ``p_i → p_j`` when ``D < 0``. Computed as ``M[i,j] + M[j,p] + M[p,i]`` with
     ``M[a,b] = xa·yb − ya·xb``, which is exact for integer coordinates below 2**16.
-    Returns a ``(B, n, n, n)`` float64 array (a single set gives ``B = 1``).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2) or (B, n, 2)
+        Point sets (any units).
+
+    Returns
+    -------
+    ndarray of float64, shape (B, n, n, n)
+        ``D`` in squared units of ``points`` (a single set gives ``B = 1``); 0 wherever
+        two of ``i, j, p`` coincide.
     """
     pts, _ = as_point_batch(points)
     x = pts[..., 0]
@@ -81,7 +207,13 @@ def _lambda_from_upper(
 
 @dataclass(frozen=True)
 class PointSetAnalysis:
-    """One pass over a batch: λ-matrices, general-position flags and MP (see the functions)."""
+    """One pass over a batch of ``B`` sets of ``n`` points (see :func:`analyse_point_sets`).
+
+    - ``lambdas``: ``(B, n, n)`` int8 λ-matrices (meaningful where ``general_position``);
+    - ``general_position``: ``(B,)`` bool, no repeated point and no collinear triple;
+    - ``mp``: ``(B,)`` float64 MP in the units of the coordinates, 0 where not in general
+      position.
+    """
 
     lambdas: NDArray[np.int8]
     general_position: NDArray[np.bool_]
@@ -89,11 +221,20 @@ class PointSetAnalysis:
 
 
 def analyse_point_sets(points: ArrayLike) -> PointSetAnalysis:
-    """λ-matrices, general-position mask and MP of a ``(B, n, 2)`` batch from one orientation pass.
+    """λ-matrices, general-position mask and MP of a batch from one orientation pass.
 
     Cheaper than calling :func:`lambda_matrices`, :func:`general_position_mask` and
-    :func:`maximal_perturbations` separately (the importer's hot path). λ is only
-    meaningful where ``general_position`` is True.
+    :func:`maximal_perturbations` separately (the importer's hot path).
+
+    Parameters
+    ----------
+    points : array_like, shape (B, n, 2)
+        Point sets (file coordinates: grid units).
+
+    Returns
+    -------
+    PointSetAnalysis
+        λ-matrices, general-position flags and MP (units of ``points``) of every set.
     """
     pts, _ = as_point_batch(points)
     n = pts.shape[1]
@@ -113,11 +254,20 @@ def analyse_point_sets(points: ArrayLike) -> PointSetAnalysis:
 
 
 def lambda_matrices(points: ArrayLike) -> NDArray[np.int8]:
-    """λ-matrices ``L[b, i, j]`` = number of points left of ``p_i → p_j`` (diagonal 0).
+    """λ-matrices: ``L[b, i, j]`` = number of points left of ``p_i → p_j`` (diagonal 0).
 
-    ``points`` is ``(B, n, 2)``; returns ``(B, n, n)`` int8. Assumes general position
-    (see :func:`check_general_position`). Only pairs ``i < j`` are evaluated: in general
-    position ``L[j, i] = n − 2 − L[i, j]``.
+    Only pairs ``i < j`` are evaluated: in general position ``L[j, i] = n − 2 − L[i, j]``.
+
+    Parameters
+    ----------
+    points : array_like, shape (B, n, 2)
+        Point sets in general position (see :func:`check_general_position`), screen
+        coordinates.
+
+    Returns
+    -------
+    ndarray of int8, shape (B, n, n)
+        The λ-matrices in input point order.
     """
     pts, _ = as_point_batch(points)
     d, first, second = _upper_orientations(pts)
@@ -125,7 +275,18 @@ def lambda_matrices(points: ArrayLike) -> NDArray[np.int8]:
 
 
 def lambda_matrix(points: ArrayLike) -> NDArray[np.int8]:
-    """λ-matrix of one point set given as ``(n, 2)``; returns ``(n, n)`` int8."""
+    """λ-matrix of one point set (see :func:`lambda_matrices`).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        One point set in general position, screen coordinates.
+
+    Returns
+    -------
+    ndarray of int8, shape (n, n)
+        Its λ-matrix.
+    """
     pts = np.asarray(points)
     if pts.ndim != 2:
         raise ValueError("lambda_matrix takes one point set of shape (n, 2)")
@@ -134,10 +295,20 @@ def lambda_matrix(points: ArrayLike) -> NDArray[np.int8]:
 
 
 def hull_sizes(lam: NDArray[np.integer]) -> NDArray[np.int64]:
-    """Number of convex-hull vertices of each set, from its ``(B, n, n)`` λ-matrices.
+    """Number of convex-hull vertices of each set, from its λ-matrix.
 
-    A point is a hull vertex exactly when the line to one of its neighbours has all
-    other ``n − 2`` points on its left.
+    A point is a hull vertex exactly when the line to one of its neighbours has all other
+    ``n − 2`` points on its left.
+
+    Parameters
+    ----------
+    lam : ndarray of int, shape (B, n, n)
+        λ-matrices of sets in general position.
+
+    Returns
+    -------
+    ndarray of int64, shape (B,)
+        Hull vertex counts.
     """
     n = lam.shape[-1]
     on_hull = (lam == n - 2).any(axis=2)
@@ -146,7 +317,18 @@ def hull_sizes(lam: NDArray[np.integer]) -> NDArray[np.int64]:
 
 
 def hull_size(points: ArrayLike) -> int:
-    """Number of convex-hull vertices of one ``(n, 2)`` point set in general position."""
+    """Number of convex-hull vertices of one point set.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        One point set in general position.
+
+    Returns
+    -------
+    int
+        Hull vertex count.
+    """
     return int(hull_sizes(lambda_matrix(points)[None])[0])
 
 
@@ -159,8 +341,17 @@ def _pair_lengths(pts: NDArray[np.float64]) -> NDArray[np.float64]:
 def maximal_perturbations(points: ArrayLike) -> NDArray[np.float64]:
     """MP of each set: half the smallest distance from a point to a line through two others.
 
-    In the units of the coordinates (grid units for file coordinates). Moving every point
-    by less than MP cannot change the order type (paper Sec. 5.3). ``(B, n, 2)`` → ``(B,)``.
+    Moving every point by less than MP cannot change the order type (paper Sec. 5.3).
+
+    Parameters
+    ----------
+    points : array_like, shape (B, n, 2)
+        Point sets (file coordinates: grid units; placed points: data-area units).
+
+    Returns
+    -------
+    ndarray of float64, shape (B,)
+        MP in the units of ``points``.
     """
     pts, _ = as_point_batch(points)
     n = pts.shape[1]
@@ -180,36 +371,57 @@ def maximal_perturbations(points: ArrayLike) -> NDArray[np.float64]:
 
 
 def maximal_perturbation(points: ArrayLike) -> float:
-    """MP of one ``(n, 2)`` point set, in coordinate units."""
+    """MP of one point set (see :func:`maximal_perturbations`).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        One point set (any units).
+
+    Returns
+    -------
+    float
+        MP in the units of ``points``.
+    """
     return float(maximal_perturbations(np.asarray(points)[None])[0])
 
 
 def general_position_mask(points: ArrayLike, *, tolerance: float = 0.0) -> NDArray[np.bool_]:
-    """``(B,)`` bool: True where a set has no repeated point and no collinear triple.
+    """Which sets have no repeated point and no collinear triple.
 
-    ``tolerance`` is the smallest accepted ``|D|`` (twice the triangle area); 0 means exact.
+    Parameters
+    ----------
+    points : array_like, shape (B, n, 2)
+        Point sets (any units).
+    tolerance : float, optional
+        Smallest accepted ``|D|`` (twice the triangle area, squared units); 0 means exact.
+
+    Returns
+    -------
+    ndarray of bool, shape (B,)
+        True where the set is in general position.
     """
     pts, _ = as_point_batch(points)
-    n = pts.shape[1]
-    d = np.abs(orientation_tensor(pts))
-    a, b, c = _triples(n)
-    ok: NDArray[np.bool_] = np.asarray((d[:, a, b, c] > tolerance).all(axis=1), dtype=bool)
+    ok: NDArray[np.bool_] = np.asarray((np.abs(triple_orientations(pts)) > tolerance).all(axis=1), dtype=bool)
     return ok
-
-
-def _triples(n: int) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
-    idx = np.arange(n)
-    a, b, c = np.meshgrid(idx, idx, idx, indexing="ij")
-    keep = (a < b) & (b < c)
-    return a[keep], b[keep], c[keep]
 
 
 def check_general_position(points: ArrayLike, *, record_offset: int = 0) -> None:
     """Raise :class:`GeneralPositionError` naming the first bad set and its points.
 
-    A repeated point is reported as the pair of indices, a collinear triple as the three
-    indices (0-based within the set). ``record_offset`` is added to the batch index so
-    callers streaming a file can report the record number in the file.
+    Parameters
+    ----------
+    points : array_like, shape (n, 2) or (B, n, 2)
+        Point sets (any units).
+    record_offset : int, optional
+        Added to the batch index in the error, so callers streaming a file can report the
+        record number in the file.
+
+    Raises
+    ------
+    GeneralPositionError
+        For the first set with a repeated point (reported as the pair of 0-based indices)
+        or a collinear triple (the three indices).
     """
     pts, _ = as_point_batch(points)
     n = pts.shape[1]
@@ -226,9 +438,8 @@ def check_general_position(points: ArrayLike, *, record_offset: int = 0) -> None
                     record=b + record_offset,
                     points=(i, j),
                 )
-    d = orientation_tensor(s[None])[0]
-    a, bb, c = _triples(n)
-    bad = np.flatnonzero(d[a, bb, c] == 0)
+    a, bb, c = triple_indices(n)
+    bad = np.flatnonzero(triple_orientations(s[None])[0] == 0)
     t = int(bad[0])
     tri = (int(a[t]), int(bb[t]), int(c[t]))
     raise GeneralPositionError(

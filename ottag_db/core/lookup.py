@@ -39,7 +39,18 @@ class TagLookup(Protocol):
     """What the decoder needs from a tag store: find an order type by canonical ID."""
 
     def get(self, lambda_text: str) -> LookupEntry | None:
-        """Entry for a canonical ID, or None when the store does not hold it."""
+        """Find an order type by canonical ID.
+
+        Parameters
+        ----------
+        lambda_text : str
+            Canonical ID ``k:digits``.
+
+        Returns
+        -------
+        LookupEntry or None
+            The entry, or None when the store does not hold the ID.
+        """
         ...
 
     def __len__(self) -> int: ...
@@ -51,7 +62,13 @@ class TagLookup(Protocol):
 
 
 class MemoryLookup:
-    """A :class:`TagLookup` held in a dict; built once, read per frame without I/O."""
+    """A :class:`TagLookup` held in a dict; built once, read per frame without I/O.
+
+    Parameters
+    ----------
+    entries : iterable of LookupEntry
+        The order types (a later entry with the same ID replaces an earlier one).
+    """
 
     def __init__(self, entries: Iterable[LookupEntry]):
         self._entries: dict[str, LookupEntry] = {}
@@ -60,7 +77,18 @@ class MemoryLookup:
         self._ks = frozenset(e.k for e in self._entries.values())
 
     def get(self, lambda_text: str) -> LookupEntry | None:
-        """Entry for a canonical ID, or None."""
+        """Find an order type by canonical ID.
+
+        Parameters
+        ----------
+        lambda_text : str
+            Canonical ID ``k:digits``.
+
+        Returns
+        -------
+        LookupEntry or None
+            The entry, or None when the lookup does not hold the ID.
+        """
         return self._entries.get(lambda_text)
 
     def __len__(self) -> int:

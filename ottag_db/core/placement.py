@@ -70,6 +70,26 @@ def tag_placements(points_batch: ArrayLike, inner_margin: float = DEFAULT_INNER_
     (7 × 7 × 7 grid search, then four local 5 × 5 × 5 refinements, batched over sets); ``s``
     makes the larger side of the bounding box ``1 − 2 · inner_margin`` and the box is
     centred, so every point keeps at least ``inner_margin`` from the border.
+
+    Parameters
+    ----------
+    points_batch : array_like, shape (B, k, 2)
+        Point sets in general position, file coordinates (grid units; screen convention).
+    inner_margin : float, optional
+        Smallest distance between a point and the data-area border, in data-area units
+        (fraction of its side), in [0, 0.5).
+
+    Returns
+    -------
+    ndarray of float64, shape (B, 2, 3)
+        One affine map per set, file coordinates → data-area unit coordinates.
+
+    Raises
+    ------
+    UsageError
+        For ``inner_margin`` outside [0, 0.5).
+    ExportError
+        For a set that is not in general position.
     """
     if not 0.0 <= inner_margin < 0.5:
         raise UsageError(f"inner margin must be in [0, 0.5) of the data-area side, got {inner_margin}")
@@ -117,7 +137,21 @@ def tag_placements(points_batch: ArrayLike, inner_margin: float = DEFAULT_INNER_
 
 
 def tag_placement(points: ArrayLike, inner_margin: float = DEFAULT_INNER_MARGIN) -> NDArray[np.float64]:
-    """Affine map ``(2, 3)`` of one ``(k, 2)`` point set; see :func:`tag_placements`."""
+    """Affine map of one point set into the data area; see :func:`tag_placements`.
+
+    Parameters
+    ----------
+    points : array_like, shape (k, 2)
+        One point set in general position, file coordinates (grid units).
+    inner_margin : float, optional
+        Smallest distance between a point and the border, data-area units.
+
+    Returns
+    -------
+    ndarray of float64, shape (2, 3)
+        The map ``p ↦ M[:, :2] @ p + M[:, 2]`` to data-area unit coordinates (x right, y
+        down, the data area is [0, 1]²).
+    """
     arr = np.asarray(points)
     if arr.ndim != 2:
         raise ValueError(f"tag_placement takes one point set of shape (k, 2), got {arr.shape}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Literal
 
-__all__ = ["COMPLETE_COUNTS", "MP_THRESHOLDS", "POLARITIES", "Polarity", "ProgressCallback"]
+__all__ = ["COMPLETE_COUNTS", "MP_THRESHOLDS", "POLARITIES", "Polarity", "ProgressCallback", "StageProgress"]
 
 #: Tone of a tag: ``normal`` (white quiet zone, black data area, white triangles) or
 #: ``inverted`` (tones swapped).
@@ -14,6 +14,10 @@ POLARITIES: tuple[Polarity, ...] = ("normal", "inverted")
 
 #: Progress report of long work: ``callback(done, total)``, both counts of the same unit.
 ProgressCallback = Callable[[int, int], None]
+
+#: Progress report of work in named stages: ``callback(stage, done, total)``, the counts of
+#: one stage (e.g. ``"realize k=8"``, sets); the CLI shows one bar per stage.
+StageProgress = Callable[[str, int, int], None]
 
 #: MP thresholds (grid units) of the paper's Table 7: 0.5, 1.0, …, 9.0.
 MP_THRESHOLDS: tuple[float, ...] = tuple(0.5 * i for i in range(1, 19))

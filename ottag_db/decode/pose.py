@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ottag_db.decode.detector import Detection
+from ottag_db.decode.types import Detection
 from ottag_db.errors import UsageError
 
 __all__ = ["Pose", "PoseSolution", "estimate_pose", "placement_from_detection", "tag_object_points"]

@@ -16,7 +16,18 @@ _NAME = re.compile(r"^ottag-k(\d{2})\.b(08|16)$")
 
 
 def bundled_point_files() -> list[tuple[Path, int]]:
-    """``(path, k)`` of every bundled point-set file, ordered by k."""
+    """The bundled point-set files.
+
+    Returns
+    -------
+    list of (Path, int)
+        ``(path, k)`` of every ``ottag-kNN.b08|b16`` in the data folder, ordered by k.
+
+    Raises
+    ------
+    PointFileError
+        When the data folder holds none (a broken installation).
+    """
     folder = data_dir()
     found: list[tuple[Path, int]] = []
     if folder.is_dir():
@@ -30,7 +41,19 @@ def bundled_point_files() -> list[tuple[Path, int]]:
 
 
 def bundled_manifest() -> dict[str, Any]:
-    """Contents of the bundled ``manifest.json`` (counts, sha256, seed, tool version)."""
+    """Contents of the bundled ``manifest.json``.
+
+    Returns
+    -------
+    dict
+        The parsed manifest: per-file counts and sha256, seed, tool version, MP summary
+        (grid units).
+
+    Raises
+    ------
+    PointFileError
+        When the manifest is missing.
+    """
     path = data_dir() / "manifest.json"
     if not path.exists():
         raise PointFileError(f"{path}: the bundled manifest is missing; reinstall ottag-db")

@@ -70,7 +70,24 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
     ``n`` (points per record) comes from the argument or from an official name
     ``otypesNN.b08|b16`` (or ``ottag-kNN.b08|b16`` as written by ``ottag-db generate``);
     the coordinate width from the suffix ``.b08`` / ``.b16``.
-    Raises :class:`PointFileError` naming the file and the fix.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The point-set file.
+    n : int, optional
+        Points per record (3 … 10); taken from the name when None.
+
+    Returns
+    -------
+    PointFileInfo
+        Points per record, bits per coordinate, record count and whether the name is an
+        official one (then the record count is checked against the official count).
+
+    Raises
+    ------
+    PointFileError
+        Naming the file and the fix (missing, wrong type or size, ``n`` unknown or wrong).
     """
     p = Path(path)
     if not p.exists():
@@ -119,9 +136,28 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
 
 
 def iter_point_chunks(info: PointFileInfo, chunk_records: int = 65536) -> Iterator[tuple[int, NDArray[np.int64]]]:
-    """Yield ``(first_record_index, points)`` with ``points`` a ``(B, n, 2)`` int64 array.
+    """Stream the records of a point-set file in chunks.
 
     Reads ``chunk_records`` records at a time, so memory stays bounded for any file size.
+
+    Parameters
+    ----------
+    info : PointFileInfo
+        The file's layout, from :func:`inspect_point_file`.
+    chunk_records : int, optional
+        Records per chunk.
+
+    Yields
+    ------
+    first : int
+        Index of the chunk's first record in the file.
+    points : ndarray of int64, shape (B, n, 2)
+        The records' coordinates (grid units, as stored).
+
+    Raises
+    ------
+    PointFileError
+        When the file changed while reading (a partial record).
     """
     rs = info.record_size
     with info.path.open("rb") as fh:
@@ -141,17 +177,42 @@ def iter_point_chunks(info: PointFileInfo, chunk_records: int = 65536) -> Iterat
 
 
 def read_point_file(path: str | os.PathLike[str], n: int | None = None) -> NDArray[np.int64]:
-    """Read a whole (small) point-set file into a ``(records, n, 2)`` int64 array."""
+    """Read a whole (small) point-set file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The point-set file.
+    n : int, optional
+        Points per record; taken from the name when None (see :func:`inspect_point_file`).
+
+    Returns
+    -------
+    ndarray of int64, shape (records, n, 2)
+        The coordinates (grid units, as stored).
+    """
     info = inspect_point_file(path, n)
     chunks = [c for _, c in iter_point_chunks(info)]
     return np.concatenate(chunks, axis=0)
 
 
 def write_point_file(path: str | os.PathLike[str], points: ArrayLike, bits: int | None = None) -> None:
-    """Write a ``(B, n, 2)`` array of non-negative integer coordinates as ``.b08`` / ``.b16``.
+    """Write point sets as a ``.b08`` / ``.b16`` file.
 
-    ``bits`` defaults to the file suffix. Coordinates must fit the width (0 … 255 or
-    0 … 65535).
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file to write (replaced when it exists).
+    points : array_like, shape (B, n, 2)
+        Non-negative integer coordinates (grid units) that fit the width: 0 … 255 for 8
+        bits, 0 … 65535 for 16.
+    bits : int, optional
+        8 or 16; from the suffix of ``path`` when None.
+
+    Raises
+    ------
+    PointFileError
+        For an unknown width or coordinates that do not fit it.
     """
     p = Path(path)
     if bits is None:
@@ -168,7 +229,18 @@ def write_point_file(path: str | os.PathLike[str], points: ArrayLike, bits: int 
 
 
 def file_sha256(path: str | os.PathLike[str]) -> str:
-    """Hex SHA-256 of a file, read in 1 MiB blocks."""
+    """SHA-256 of a file, read in 1 MiB blocks.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+
+    Returns
+    -------
+    str
+        The digest in lowercase hex.
+    """
     h = hashlib.sha256()
     with Path(path).open("rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -21,10 +21,22 @@ def _package_dir(package: str, checkout_name: str) -> Path:
 
 
 def migrations_dir() -> Path:
-    """Folder with Alembic's env.py and versions/."""
+    """Folder with Alembic's env.py and versions/.
+
+    Returns
+    -------
+    Path
+        The installed sub-package ``ottag_db.migrations``, or ``migrations/`` of a checkout.
+    """
     return _package_dir("ottag_db.migrations", "migrations")
 
 
 def data_dir() -> Path:
-    """Folder with the bundled point-set files and manifest.json."""
+    """Folder with the bundled point-set files and manifest.json.
+
+    Returns
+    -------
+    Path
+        The installed sub-package ``ottag_db.data``, or ``data/`` of a checkout.
+    """
     return _package_dir("ottag_db.data", "data")

@@ -1,1 +1,10 @@
-"""printing."""
+"""Drawing tags (imports ``core`` only): geometry, raster, SVG, PDF sheets, synthetic camera frames.
+
+- :mod:`~ottag_db.printing.geometry`: a placed point set with its layout, tones and sizes;
+- :mod:`~ottag_db.printing.raster`, :mod:`~ottag_db.printing.svg`, :mod:`~ottag_db.printing.pdf`:
+  one tag as PNG pixels, an SVG document, or on a reportlab canvas;
+- :mod:`~ottag_db.printing.sheet`: print-ready PDF sheets;
+- :mod:`~ottag_db.printing.output`: output paths checked before drawing;
+- :mod:`~ottag_db.printing.scenes` and :mod:`~ottag_db.printing.camera`: tags seen by a
+  pinhole camera, with blur, noise, light and JPEG (decoder tests and benchmarks).
+"""

@@ -7,14 +7,16 @@ import math
 import os
 import re
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ottag_db.core.types import Polarity
+from ottag_db.core.types import Polarity, ProgressCallback
 from ottag_db.errors import ExportError, UsageError
-from ottag_db.printing.render import MM_TO_PT, TagGeometry, default_quiet_zone, draw_tag_pdf
+from ottag_db.printing.geometry import TagGeometry, default_quiet_zone
+from ottag_db.printing.output import check_writable
+from ottag_db.printing.pdf import MM_TO_PT, draw_tag_pdf, fit_text
 
 __all__ = [
     "PAGE_SIZES_MM",
@@ -57,7 +59,20 @@ _MARK_LINE_MM = 0.12
 def parse_length(text: str) -> float:
     """Millimetres of a length with a unit: ``"50mm"``, ``"5 cm"``, ``"2in"``, ``"72pt"``.
 
-    Raises :class:`UsageError` for a missing or unknown unit, or a value that is not > 0.
+    Parameters
+    ----------
+    text : str
+        A number and a unit: mm, cm, in or pt.
+
+    Returns
+    -------
+    float
+        The length in mm.
+
+    Raises
+    ------
+    UsageError
+        A missing or unknown unit, or a value that is not > 0.
     """
     match = _LENGTH_RE.match(str(text))
     if not match:
@@ -77,7 +92,21 @@ def parse_length(text: str) -> float:
 def parse_page(text: str) -> tuple[float, float]:
     """Page ``(width, height)`` in mm from ``"A4"``, ``"Letter"``, ``"A4-landscape"``, ``"210x297mm"``.
 
-    Names (case-insensitive): A3, A4, A5, Letter, Legal, Tabloid. Raises :class:`UsageError`.
+    Parameters
+    ----------
+    text : str
+        A name (case-insensitive: A3, A4, A5, Letter, Legal, Tabloid), optionally with a
+        ``-landscape`` suffix, or ``WxH<unit>``.
+
+    Returns
+    -------
+    tuple of float
+        ``(width, height)`` in mm.
+
+    Raises
+    ------
+    UsageError
+        An unknown name or an unreadable size.
     """
     raw = str(text).strip()
     name = raw.lower()
@@ -208,7 +237,25 @@ def _label_height_mm(options: SheetOptions) -> float:
 
 
 def sheet_grid(options: SheetOptions) -> tuple[int, int]:
-    """``(columns, rows)`` of tags per page for ``options``; raises :class:`ExportError` if none fit."""
+    """How many tags fit on a page.
+
+    Parameters
+    ----------
+    options : SheetOptions
+        Sheet settings.
+
+    Returns
+    -------
+    tuple of int
+        ``(columns, rows)`` of tags per page.
+
+    Raises
+    ------
+    ExportError
+        Not one tag (or the ruler) fits the page.
+    UsageError
+        Bad sizes.
+    """
     g = _grid(options)
     return g.columns, g.rows
 
@@ -266,36 +313,6 @@ def _grid(options: SheetOptions) -> _Grid:
     )
 
 
-def _fit_text(text: str, font: str, size: float, width_pt: float, min_size: float) -> tuple[str, float]:
-    """Shrink ``size`` (not below ``min_size``), then truncate with "...", to fit ``width_pt``."""
-    from reportlab.pdfbase.pdfmetrics import stringWidth
-
-    w = stringWidth(text, font, size)
-    if w <= width_pt:
-        return text, size
-    size = max(min_size, size * width_pt / w)
-    if stringWidth(text, font, size) <= width_pt:
-        return text, size
-    lo, hi = 0, len(text)
-    while lo < hi:
-        mid = (lo + hi + 1) // 2
-        if stringWidth(text[:mid] + "...", font, size) <= width_pt:
-            lo = mid
-        else:
-            hi = mid - 1
-    return text[:lo] + "...", size
-
-
-def _check_output(path: Path) -> None:
-    if path.is_dir():
-        raise ExportError(f"cannot write the tag sheet to {path}: it is a directory")
-    parent = path.parent if str(path.parent) else Path(".")
-    if not parent.is_dir():
-        raise ExportError(f"cannot write the tag sheet to {path}: folder {parent} does not exist")
-    if not os.access(parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise ExportError(f"cannot write the tag sheet to {path}: permission denied")
-
-
 def _draw_ruler(cv: Any, x_mm: float, y_mm: float) -> None:
     """100 mm ruler: baseline, ticks every mm (5 mm and 10 mm longer), cm numbers."""
     k = MM_TO_PT
@@ -319,7 +336,7 @@ def write_tag_sheet(
     path: str | os.PathLike[str],
     tags: Sequence[SheetTag],
     options: SheetOptions,
-    progress: Callable[[int, int], None] | None = None,
+    progress: ProgressCallback | None = None,
 ) -> SheetReport:
     """Write ``tags`` (in the given order) to a multi-page PDF at ``path``.
 
@@ -331,8 +348,29 @@ def write_tag_sheet(
     ``invariant=1``, so equal input gives byte-identical output) and written atomically.
     ``progress(done, total)`` is called after each page.
 
-    Raises :class:`ExportError` for an empty tag list, a tag that does not fit the page or
-    an unwritable path (nothing is written then), :class:`UsageError` for bad sizes.
+    Parameters
+    ----------
+    path : str or PathLike
+        Output file.
+    tags : sequence of SheetTag
+        The tags in print order (any size: each is resized to the sheet's).
+    options : SheetOptions
+        Sheet settings.
+    progress : ProgressCallback, optional
+        ``progress(done, total)`` in tags, after each page.
+
+    Returns
+    -------
+    SheetReport
+        File, pages, grid, sizes, seconds and bytes written.
+
+    Raises
+    ------
+    ExportError
+        An empty tag list, a tag that does not fit the page or an unwritable path (nothing
+        is written then).
+    UsageError
+        Bad sizes.
     """
     from reportlab.pdfgen.canvas import Canvas
 
@@ -341,7 +379,7 @@ def write_tag_sheet(
     if not tags:
         raise ExportError("no tags to write: the selection is empty (no PDF written)")
     grid = _grid(options)
-    _check_output(out)
+    check_writable(out)
     quiet = grid.quiet
     size = options.tag_size_mm
     per_page = grid.columns * grid.rows
@@ -368,16 +406,16 @@ def write_tag_sheet(
     for page in range(n_pages):
         # header
         c.setFillGray(0)
-        title, tsize = _fit_text(options.title, "Helvetica-Bold", 10, text_w, 5)
+        title, tsize = fit_text(options.title, "Helvetica-Bold", 10, text_w, 5)
         c.setFont("Helvetica-Bold", tsize)
         c.drawString(m * k, (ph - m - 3.5) * k, title)
         c.setFont("Helvetica", 7)
         right = f"page {page + 1} / {n_pages}"
         c.drawRightString((pw - m) * k, (ph - m - 3.5) * k, right)
-        line, lsize = _fit_text(f"Selection: {summary}", "Helvetica", 7, text_w, 4)
+        line, lsize = fit_text(f"Selection: {summary}", "Helvetica", 7, text_w, 4)
         c.setFont("Helvetica", lsize)
         c.drawString(m * k, (ph - m - 7.5) * k, line)
-        line, lsize = _fit_text(info, "Helvetica", 7, text_w, 4)
+        line, lsize = fit_text(info, "Helvetica", 7, text_w, 4)
         c.setFont("Helvetica", lsize)
         c.drawString(m * k, (ph - m - 11) * k, line)
         # footer: ruler and note
@@ -419,11 +457,11 @@ def write_tag_sheet(
                 cx = (x + grid.total / 2.0) * k
                 base = y - grid.label_gap - line_mm * 0.8
                 first_line = tag.id_short + (f"  {tag.caption}" if tag.caption else "")
-                text, fs = _fit_text(first_line, "Helvetica-Bold", font_pt, label_w, _MIN_LABEL_PT)
+                text, fs = fit_text(first_line, "Helvetica-Bold", font_pt, label_w, _MIN_LABEL_PT)
                 c.setFont("Helvetica-Bold", fs)
                 c.drawCentredString(cx, base * k, text)
                 second = f"k={g.k}  MP {g.mp_unit * size:.2f} mm  {g.polarity}"
-                text, fs = _fit_text(second, "Helvetica", font_pt, label_w, _MIN_LABEL_PT)
+                text, fs = fit_text(second, "Helvetica", font_pt, label_w, _MIN_LABEL_PT)
                 c.setFont("Helvetica", fs)
                 c.drawCentredString(cx, (base - line_mm) * k, text)
         if options.cut_marks and grid.mark_len > 0:

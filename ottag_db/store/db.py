@@ -76,13 +76,25 @@ class Database:
 def resolve_database_url(target: str | os.PathLike[str] | None = None) -> tuple[str, Path | None]:
     """Turn ``--db`` / ``$OTTAG_DB`` / the default into a SQLAlchemy URL and a file path (if any).
 
-    A value containing ``://`` is taken as a SQLAlchemy URL; anything else is a file path.
+    Parameters
+    ----------
+    target : str or PathLike, optional
+        A value containing ``://`` is taken as a SQLAlchemy URL (an SQLite URI such as
+        ``sqlite:///file:/path/db.sqlite?mode=ro&uri=true`` opens the file read-only);
+        anything else is a file path. None means ``$OTTAG_DB`` or ``./ottag.sqlite``.
+
+    Returns
+    -------
+    tuple of (str, Path or None)
+        The URL, and the resolved database file for SQLite files (None otherwise).
     """
     raw = str(target) if target is not None else os.environ.get("OTTAG_DB") or DEFAULT_DB_PATH
     if "://" in raw:
         url = make_url(raw)
         database = url.database
         if url.get_backend_name() == "sqlite" and database and database != ":memory:":
+            if url.query.get("uri") == "true" and database.startswith("file:"):
+                database = database.removeprefix("file:")
             return raw, Path(database).resolve()
         return raw, None
     path = Path(raw).expanduser().resolve()
@@ -96,7 +108,13 @@ def _alembic_config() -> Config:
 
 
 def head_revision() -> str:
-    """Newest revision of the bundled migrations."""
+    """Newest revision of the bundled migrations.
+
+    Returns
+    -------
+    str
+        The Alembic revision id, e.g. ``"0004"``.
+    """
     head = ScriptDirectory.from_config(_alembic_config()).get_current_head()
     if head is None:  # pragma: no cover - the package always ships migrations
         raise DatabaseError("no migrations found in the installed package")
@@ -142,11 +160,27 @@ def _backup_sqlite(path: Path, revision: str | None) -> Path:
 def open_database(target: str | os.PathLike[str] | None = None, *, migrate: bool = True) -> Database:
     """Open (creating if needed) the database and migrate it to the newest schema.
 
-    ``target`` is a file path or SQLAlchemy URL; None means ``$OTTAG_DB`` or
-    ``./ottag.sqlite``. An existing file at an older revision is copied to
-    ``<name>.bak-<revision>-<timestamp>`` first. SQLite connections get
-    ``PRAGMA foreign_keys=ON`` and the file is put in WAL mode. Raises
-    :class:`DatabaseError` for a corrupt file or a schema newer than this tool.
+    An existing file at an older revision is copied to ``<name>.bak-<revision>-<timestamp>``
+    first. SQLite connections get ``PRAGMA foreign_keys=ON`` and a writable file is put in
+    WAL mode. A database at the newest revision is not written to by opening it, so it can
+    be opened read-only (``sqlite:///file:…?mode=ro&uri=true``) for reading and exporting.
+
+    Parameters
+    ----------
+    target : str or PathLike, optional
+        File path or SQLAlchemy URL (see :func:`resolve_database_url`).
+    migrate : bool
+        Upgrade to the newest revision (False only for tools and tests).
+
+    Returns
+    -------
+    Database
+        The open database; ``backup`` names the copy taken before migrating, if any.
+
+    Raises
+    ------
+    DatabaseError
+        A corrupt or foreign file, a missing folder, or a schema newer than this tool.
     """
     url, path = resolve_database_url(target)
     if path is not None:
@@ -164,7 +198,9 @@ def open_database(target: str | os.PathLike[str] | None = None, *, migrate: bool
     try:
         if engine.dialect.name == "sqlite" and path is not None:
             with engine.connect() as conn:
-                conn.exec_driver_sql("PRAGMA journal_mode=WAL")
+                # Only change the mode when needed: setting it writes, which a read-only file refuses.
+                if conn.exec_driver_sql("PRAGMA journal_mode").scalar() != "wal" and not _read_only(url):
+                    conn.exec_driver_sql("PRAGMA journal_mode=WAL")
         if migrate:
             _migrate(db, existed)
     except DatabaseError:
@@ -174,6 +210,11 @@ def open_database(target: str | os.PathLike[str] | None = None, *, migrate: bool
         engine.dispose()
         raise DatabaseError(f"{path or url}: cannot use this database: {exc.args[0] if exc.args else exc}") from exc
     return db
+
+
+def _read_only(url: str) -> bool:
+    """True for an SQLite URI opened with ``mode=ro``."""
+    return make_url(url).query.get("mode") == "ro"
 
 
 def _migrate(db: Database, existed: bool) -> None:
@@ -202,7 +243,15 @@ def _migrate(db: Database, existed: bool) -> None:
 
 
 def upgrade(db: Database, revision: str = "head") -> None:
-    """Run the Alembic upgrade to ``revision`` on the database's own connection."""
+    """Run the Alembic upgrade to ``revision`` on the database's own connection (one transaction).
+
+    Parameters
+    ----------
+    db : Database
+        An open database.
+    revision : str
+        Target revision (default the newest).
+    """
     cfg = _alembic_config()
     with db.engine.begin() as conn:
         _run_upgrade(cfg, conn, revision)

@@ -1,4 +1,8 @@
-"""Import point-set files into the database: one transaction per file, streamed in chunks."""
+"""Import point-set files into the database: one transaction per file, streamed in chunks.
+
+Each chunk's realizations are stored with their layouts and placements
+(:mod:`ottag_db.store.layouts`), so reads never have to compute them.
+"""
 
 from __future__ import annotations
 
@@ -17,16 +21,16 @@ from sqlalchemy.dialects import postgresql
 
 from ottag_db.core.canonical import canonicalize_lambdas, mirror_lambdas
 from ottag_db.core.geometry import analyse_point_sets, check_general_position
+from ottag_db.core.layout import layout_supported
 from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import GeneralPositionError, PointFileError
 from ottag_db.files.pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
 from ottag_db.store.db import Database
+from ottag_db.store.layouts import LAYOUT_BATCH, missing_layouts, store_layouts
 from ottag_db.store.models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
 from ottag_db.store.numbering import assign_numbers
 
-__all__ = ["ImportReport", "ProgressCallback", "import_point_file", "import_point_files"]
-
-#: ``progress(done, total)`` in records; called after every chunk.
+__all__ = ["ImportReport", "import_point_file", "import_point_files"]
 
 # Records per chunk: an n = 10 chunk needs about 16384 × 450 float64 of orientations (60 MB).
 _CHUNK_RECORDS = 16384
@@ -97,6 +101,7 @@ def _reflect(points: NDArray[np.int64], max_coordinate: int) -> NDArray[np.int64
     return out
 
 
+# SQL column names (bulk inserts go by column, not by ORM attribute: see models.OrderType).
 _OT_COLUMNS = ("k", "canonical_lambda", "unique_min", "minimal_orderings", "hull_size", "mirror_lambda", "chiral")
 _R_COLUMNS = ("order_type_id", "source_id", "record_index", "mirrored", "coordinates", "mp", "canonical_labeling")
 
@@ -116,33 +121,40 @@ def _upsert_order_types(conn: Connection, k: int, data: _ChunkData) -> dict[str,
                 mirror,
                 mirror != text,
             )
+    if conn.dialect.name == "sqlite":
+        return _upsert_sqlite(conn, k, rows)
+    return _upsert_generic(conn, k, rows)
+
+
+def _upsert_sqlite(conn: Connection, k: int, rows: dict[str, tuple[object, ...]]) -> dict[str, int]:
+    """SQLite fast path: one INSERT OR IGNORE and one join through a temporary key table."""
+    cols = ", ".join(_OT_COLUMNS)
+    conn.exec_driver_sql(
+        f"INSERT OR IGNORE INTO order_types ({cols}) VALUES ({', '.join('?' * len(_OT_COLUMNS))})",
+        list(rows.values()),
+    )
+    conn.exec_driver_sql("CREATE TEMP TABLE IF NOT EXISTS ottag_chunk_keys (lam TEXT PRIMARY KEY)")
+    conn.exec_driver_sql("DELETE FROM ottag_chunk_keys")
+    conn.exec_driver_sql("INSERT INTO ottag_chunk_keys (lam) VALUES (?)", [(t,) for t in rows])
+    found = conn.exec_driver_sql(
+        "SELECT o.canonical_lambda, o.id FROM ottag_chunk_keys c "
+        "JOIN order_types o ON o.k = ? AND o.canonical_lambda = c.lam",
+        (k,),
+    ).all()
+    return {t: int(i) for t, i in found}
+
+
+def _upsert_generic(conn: Connection, k: int, rows: dict[str, tuple[object, ...]]) -> dict[str, int]:
+    """Any other database: look the IDs up, insert the missing ones by column name, look up again."""
+    table: Any = OrderType.__table__
+    stmt: Any = insert(table)
+    if conn.dialect.name == "postgresql":
+        stmt = postgresql.insert(table).on_conflict_do_nothing()
     keys = list(rows)
     ids: dict[str, int] = {}
-    if conn.dialect.name == "sqlite":
-        # SQLite fast path: one INSERT OR IGNORE and one join through a temporary key table.
-        cols = ", ".join(_OT_COLUMNS)
-        conn.exec_driver_sql(
-            f"INSERT OR IGNORE INTO order_types ({cols}) VALUES ({', '.join('?' * len(_OT_COLUMNS))})",
-            list(rows.values()),
-        )
-        conn.exec_driver_sql("CREATE TEMP TABLE IF NOT EXISTS ottag_chunk_keys (lam TEXT PRIMARY KEY)")
-        conn.exec_driver_sql("DELETE FROM ottag_chunk_keys")
-        conn.exec_driver_sql("INSERT INTO ottag_chunk_keys (lam) VALUES (?)", [(t,) for t in keys])
-        found = conn.exec_driver_sql(
-            "SELECT o.canonical_lambda, o.id FROM ottag_chunk_keys c "
-            "JOIN order_types o ON o.k = ? AND o.canonical_lambda = c.lam",
-            (k,),
-        ).all()
-        ids.update({t: int(i) for t, i in found})
-        return ids
-    stmt: Any = insert(OrderType)
-    if conn.dialect.name == "postgresql":
-        stmt = postgresql.insert(OrderType).on_conflict_do_nothing()
     for s in range(0, len(keys), _IN_BATCH):
         part = keys[s : s + _IN_BATCH]
-        query = select(OrderType.canonical_lambda, OrderType.id).where(
-            OrderType.k == k, OrderType.canonical_lambda.in_(part)
-        )
+        query = select(OrderType.lambda_text, OrderType.id).where(OrderType.k == k, OrderType.lambda_text.in_(part))
         ids.update({t: i for t, i in conn.execute(query).all()})
         missing = [dict(zip(_OT_COLUMNS, rows[t], strict=True)) for t in part if t not in ids]
         if missing:
@@ -172,7 +184,7 @@ def _insert_realizations(
             f"INSERT INTO realizations ({', '.join(_R_COLUMNS)}) VALUES ({', '.join('?' * len(_R_COLUMNS))})", rows
         )
     else:
-        conn.execute(insert(Realization), [dict(zip(_R_COLUMNS, r, strict=True)) for r in rows])
+        conn.execute(insert(Realization.__table__), [dict(zip(_R_COLUMNS, r, strict=True)) for r in rows])  # type: ignore[arg-type]
     return len(rows)
 
 
@@ -188,11 +200,39 @@ def import_point_file(
     """Import one ``.b08``/``.b16`` file in a single transaction.
 
     Every record is checked for general position, canonicalized and stored as a
-    realization of its order type (order types are shared across files). With
-    ``with_mirrors`` the mirror image (x → max − x) of every chiral record is stored too,
-    as a realization of the mirror order type. Importing a file whose SHA-256 is already
-    recorded (with the same or fewer mirrors) is a no-op reported with ``skipped=True``.
-    Any error rolls the whole file back and raises a typed error naming the file and record.
+    realization of its order type (order types are shared across files), together with its
+    triangle layout and tag placement (k = 3, 5 … 8; see :mod:`ottag_db.store.layouts`).
+    With ``with_mirrors`` the mirror image (x → max − x) of every chiral record is stored
+    too, as a realization of the mirror order type. Importing a file whose SHA-256 is
+    already recorded (with the same or fewer mirrors) is a no-op reported with
+    ``skipped=True``. Any error rolls the whole file back (realizations, layouts and the
+    source row alike) and raises a typed error naming the file and record.
+
+    Parameters
+    ----------
+    db : Database
+        An open, migrated database.
+    path : str or PathLike
+        The point-set file.
+    n : int, optional
+        Points per record; None reads it from the name ``otypesNN``.
+    with_mirrors : bool
+        Also store the mirror image of every chiral record.
+    progress : ProgressCallback, optional
+        ``progress(done, total)`` in records of the file: a record is done once its
+        realizations and their layouts are stored (reported per chunk and per layout batch).
+    display_name : str, optional
+        Name stored for the source and used in messages (default: the file name).
+
+    Returns
+    -------
+    ImportReport
+        Records read, new order types and realizations, seconds, and whether it was skipped.
+
+    Raises
+    ------
+    PointFileError
+        Unreadable file, bad size or a record not in general position.
     """
     start = time.perf_counter()
     info = inspect_point_file(path, n)
@@ -248,7 +288,7 @@ def _import_chunks(
     progress: ProgressCallback | None,
 ) -> int:
     added = 0
-    done = 0
+    drawable = layout_supported(info.n)
     for first, points in iter_point_chunks(info, _CHUNK_RECORDS):
         data = _analyse(points, first)
         if not only_mirrors:
@@ -263,10 +303,25 @@ def _import_chunks(
                 added += _insert_realizations(
                     conn, source_id, first, mirrored_points, mdata, ids, mirrored=True, keep=chiral
                 )
-        done += points.shape[0]
+        stop = first + points.shape[0]
+        if drawable:
+            _store_chunk_layouts(conn, source_id, first, stop, info.records, progress)
         if progress is not None:
-            progress(done, info.records)
+            progress(stop, info.records)
     return added
+
+
+def _store_chunk_layouts(
+    conn: Connection, source_id: int, first: int, stop: int, records: int, progress: ProgressCallback | None
+) -> None:
+    """Lay out the chunk's new realizations in batches; progress counts the records finished."""
+    todo = missing_layouts(conn, source_id=source_id, first=first, stop=stop)
+    for start in range(0, len(todo), LAYOUT_BATCH):
+        part = todo[start : start + LAYOUT_BATCH]
+        store_layouts(conn, [(rid, blob) for rid, _k, _record, blob in part])
+        if progress is not None:
+            # The last record of the batch may still have its mirror in the next one.
+            progress(part[-1][2], records)
 
 
 def import_point_files(
@@ -277,5 +332,24 @@ def import_point_files(
     with_mirrors: bool = False,
     progress: ProgressCallback | None = None,
 ) -> list[ImportReport]:
-    """Import several files, each in its own transaction; stops at the first failing file."""
+    """Import several files, each in its own transaction; stops at the first failing file.
+
+    Parameters
+    ----------
+    db : Database
+        An open, migrated database.
+    paths : sequence of str or PathLike
+        The point-set files, imported in this order.
+    n : int, optional
+        Points per record of every file; None reads each from its name.
+    with_mirrors : bool
+        Also store mirror images (see :func:`import_point_file`).
+    progress : ProgressCallback, optional
+        Called per file as in :func:`import_point_file`.
+
+    Returns
+    -------
+    list of ImportReport
+        One report per file.
+    """
     return [import_point_file(db, p, n=n, with_mirrors=with_mirrors, progress=progress) for p in paths]

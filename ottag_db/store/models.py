@@ -73,18 +73,23 @@ class Source(Base):
 
 
 class OrderType(Base):
-    """One order type, identified by its canonical λ-matrix (text form ``k:digits``)."""
+    """One order type, identified by its canonical λ-matrix (text form ``k:digits``).
+
+    ``lambda_text`` is the ID (SQL column ``canonical_lambda``), ``mirror_lambda_text`` the
+    ID of the mirror image (SQL column ``mirror_lambda``).
+    """
 
     __tablename__ = "order_types"
     __table_args__ = (UniqueConstraint("k", "canonical_lambda"), UniqueConstraint("k", "number"))
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True)
     k: Mapped[int] = mapped_column(Integer)
-    canonical_lambda: Mapped[str] = mapped_column(String(110))
+    # The attribute is the ID's one name in code; the SQL column keeps its original name.
+    lambda_text: Mapped[str] = mapped_column("canonical_lambda", String(110))
     unique_min: Mapped[bool] = mapped_column(Boolean)
     minimal_orderings: Mapped[int] = mapped_column(Integer)
     hull_size: Mapped[int] = mapped_column(Integer)
-    mirror_lambda: Mapped[str] = mapped_column(String(110))
+    mirror_lambda_text: Mapped[str] = mapped_column("mirror_lambda", String(110))
     chiral: Mapped[bool] = mapped_column(Boolean)
     # Rank among all order types of k (both chiralities) by canonical λ; set once the
     # database holds every order type of k, so it is the same in every complete database.
@@ -222,7 +227,18 @@ class DictionaryTag(Base):
 
 
 def coordinates_to_blobs(points: NDArray[np.integer]) -> list[bytes]:
-    """``(B, k, 2)`` non-negative coordinates → one uint16 LE blob per set."""
+    """Blobs of the ``coordinates`` column.
+
+    Parameters
+    ----------
+    points : ndarray
+        ``(B, k, 2)`` non-negative integer coordinates below 65536.
+
+    Returns
+    -------
+    list of bytes
+        One little-endian uint16 ``x, y`` blob per set, in file order.
+    """
     arr = np.ascontiguousarray(np.asarray(points), dtype="<u2")
     size = arr.shape[1] * 4
     raw = arr.tobytes()
@@ -230,12 +246,34 @@ def coordinates_to_blobs(points: NDArray[np.integer]) -> list[bytes]:
 
 
 def coordinates_from_blob(blob: bytes) -> NDArray[np.int64]:
-    """One blob of the ``coordinates`` column → ``(k, 2)`` int64."""
+    """Coordinates of one blob of the ``coordinates`` column.
+
+    Parameters
+    ----------
+    blob : bytes
+        Little-endian uint16 ``x, y`` pairs.
+
+    Returns
+    -------
+    ndarray
+        ``(k, 2)`` int64 coordinates in file order.
+    """
     return np.frombuffer(blob, dtype="<u2").reshape(-1, 2).astype(np.int64)
 
 
 def labelings_to_texts(labelings: NDArray[np.integer]) -> list[str]:
-    """``(B, k)`` labelings → digit strings for the ``canonical_labeling`` column."""
+    """Texts of the ``canonical_labeling`` column.
+
+    Parameters
+    ----------
+    labelings : ndarray
+        ``(B, k)`` labelings, ``labeling[l]`` = file index of the point with label ``l``.
+
+    Returns
+    -------
+    list of str
+        One digit string per set (digit ``l`` is ``labeling[l]``).
+    """
     arr = np.asarray(labelings)
     k = arr.shape[1]
     raw = (arr.astype(np.uint8) + ord("0")).tobytes()

@@ -7,9 +7,7 @@ from sqlalchemy import Connection, bindparam, func, select, update
 from ottag_db.core.types import COMPLETE_COUNTS
 from ottag_db.store.models import OrderType
 
-__all__ = ["COMPLETE_COUNTS", "assign_numbers"]
-
-#: Order types of k points counting both chiralities; a database with this many is complete.
+__all__ = ["assign_numbers"]
 
 
 def assign_numbers(conn: Connection) -> dict[int, bool]:
@@ -17,7 +15,17 @@ def assign_numbers(conn: Connection) -> dict[int, bool]:
 
     The set of order types of k ≤ 8 points is finite and fixed, so once a database holds
     all of them the rank is the same in every database built by this tool. Incomplete k
-    keep ``number = NULL``. Returns ``{k: complete}``.
+    keep ``number = NULL``.
+
+    Parameters
+    ----------
+    conn : Connection
+        Connection inside the caller's transaction (the import's).
+
+    Returns
+    -------
+    dict of int to bool
+        ``{k: complete}`` for every k in the database.
     """
     out: dict[int, bool] = {}
     counts = conn.execute(select(OrderType.k, func.count()).group_by(OrderType.k)).all()
@@ -31,7 +39,7 @@ def assign_numbers(conn: Connection) -> dict[int, bool]:
         ).scalar_one()
         if not missing:
             continue
-        ids = conn.execute(select(OrderType.id).where(OrderType.k == k).order_by(OrderType.canonical_lambda)).all()
+        ids = conn.execute(select(OrderType.id).where(OrderType.k == k).order_by(OrderType.lambda_text)).all()
         conn.execute(update(OrderType).where(OrderType.k == k).values(number=None))
         conn.execute(
             update(OrderType).where(OrderType.id == bindparam("b_id")).values(number=bindparam("b_number")),

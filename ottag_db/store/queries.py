@@ -19,21 +19,19 @@ from ottag_db.store.db import Database
 from ottag_db.store.models import OrderType, Realization, coordinates_from_blob
 
 __all__ = [
-    "MP_THRESHOLDS",
     "IdResult",
     "KStats",
     "OrderTypeDetail",
     "OrderTypeSummary",
     "RealizationInfo",
     "database_stats",
+    "find_order_type",
     "get_order_type",
     "identify_points",
     "list_order_types",
     "order_type_numbers",
     "parse_points",
 ]
-
-#: The v values of the paper's Table 7: 0.5, 1.0, …, 9.0 (grid units).
 
 
 @dataclass(frozen=True)
@@ -152,7 +150,20 @@ def _best_mp() -> Any:
 
 
 def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) -> list[KStats]:
-    """Per k: order types, unique-minimum ones, chiral ones and MP ≥ v counts (best realization)."""
+    """Per k: order types, unique-minimum ones, chiral ones and MP ≥ v counts (best realization).
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+    thresholds : sequence of float
+        The v values, grid units (default: the paper's Table 7).
+
+    Returns
+    -------
+    list of KStats
+        One per k present, ascending; empty for an empty database.
+    """
     best = _best_mp().subquery()
     with db.session() as s:
         rows = s.execute(
@@ -161,8 +172,8 @@ def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) ->
                 OrderType.unique_min,
                 OrderType.chiral,
                 best.c.mp,
-                OrderType.canonical_lambda,
-                OrderType.mirror_lambda,
+                OrderType.lambda_text,
+                OrderType.mirror_lambda_text,
             ).join(best, best.c.order_type_id == OrderType.id)
         ).all()
     if not rows:
@@ -202,12 +213,33 @@ def list_order_types(
     ids: Sequence[int] = (),
     lambdas: Sequence[str] = (),
 ) -> list[OrderTypeSummary]:
-    """Order types with their best realization, ordered by k then canonical λ (deterministic)."""
+    """Order types with their best realization, ordered by k then canonical λ (deterministic).
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+    ks : sequence of int
+        Only these point counts (empty: all).
+    min_mp : float, optional
+        Only order types whose best realization has MP ≥ ``min_mp`` (grid units).
+    matchable : bool
+        Only order types with a unique minimal ordering.
+    ids : sequence of int
+        Only these database ids.
+    lambdas : sequence of str
+        Only these canonical IDs.
+
+    Returns
+    -------
+    list of OrderTypeSummary
+        The contract of ``list --format json``.
+    """
     best = _best_mp().subquery()
     q = (
         select(OrderType, best.c.mp, best.c.n)
         .join(best, best.c.order_type_id == OrderType.id)
-        .order_by(OrderType.k, OrderType.canonical_lambda)
+        .order_by(OrderType.k, OrderType.lambda_text)
     )
     if ks:
         q = q.where(OrderType.k.in_(list(ks)))
@@ -218,7 +250,7 @@ def list_order_types(
     if ids:
         q = q.where(OrderType.id.in_(list(ids)))
     if lambdas:
-        q = q.where(OrderType.canonical_lambda.in_(list(lambdas)))
+        q = q.where(OrderType.lambda_text.in_(list(lambdas)))
     with db.session() as s:
         rows = s.execute(q).all()
         best_points = _best_realization_points(s, [r[0].id for r in rows])
@@ -226,14 +258,14 @@ def list_order_types(
         OrderTypeSummary(
             id=ot.id,
             k=ot.k,
-            lambda_text=ot.canonical_lambda,
+            lambda_text=ot.lambda_text,
             mp=float(mp),
             points=best_points[ot.id],
             hull_size=ot.hull_size,
             unique_min=bool(ot.unique_min),
             minimal_orderings=ot.minimal_orderings,
             chiral=bool(ot.chiral),
-            mirror=ot.mirror_lambda,
+            mirror=ot.mirror_lambda_text,
             realizations=int(n),
             number=ot.number,
         )
@@ -257,23 +289,57 @@ def _best_realization_points(s: Session, order_type_ids: list[int]) -> dict[int,
     return out
 
 
+def find_order_type(s: Session, ident: str | int) -> OrderType | None:
+    """The order type with database id ``ident`` (int or digits) or canonical text ``k:digits``.
+
+    Parameters
+    ----------
+    s : Session
+        An open session.
+    ident : str or int
+        Database id, or an ID in text form (any labeling; it is canonicalised first).
+
+    Returns
+    -------
+    OrderType or None
+        The stored row, None when the database does not hold it.
+    """
+    if isinstance(ident, int) or str(ident).strip().isdigit():
+        return s.get(OrderType, int(ident))
+    mat = parse_lambda_text(str(ident))
+    return s.execute(
+        select(OrderType).where(OrderType.k == mat.shape[0], OrderType.lambda_text == lambda_text(mat))
+    ).scalar_one_or_none()
+
+
 def get_order_type(db: Database, ident: str | int) -> OrderTypeDetail:
-    """Look an order type up by database id (int or digits) or canonical text ``k:digits``."""
+    """Look an order type up by database id (int or digits) or canonical text ``k:digits``.
+
+    Parameters
+    ----------
+    db : Database
+        An open database.
+    ident : str or int
+        Database id or ID text, as :func:`find_order_type`.
+
+    Returns
+    -------
+    OrderTypeDetail
+        Summary, λ-matrix, the mirror's database id and every realization (best first).
+
+    Raises
+    ------
+    NotFoundError
+        The database does not hold it (or it has no realization).
+    """
     with db.session() as s:
-        if isinstance(ident, int) or str(ident).strip().isdigit():
-            ot = s.get(OrderType, int(ident))
-            if ot is None:
+        ot = find_order_type(s, ident)
+        if ot is None:
+            if isinstance(ident, int) or str(ident).strip().isdigit():
                 raise NotFoundError(f"no order type with id {ident} in the database")
-        else:
-            mat = parse_lambda_text(str(ident))
-            text = lambda_text(mat)
-            ot = s.execute(
-                select(OrderType).where(OrderType.k == mat.shape[0], OrderType.canonical_lambda == text)
-            ).scalar_one_or_none()
-            if ot is None:
-                raise NotFoundError(f"order type {text} is not in the database")
+            raise NotFoundError(f"order type {lambda_text(parse_lambda_text(str(ident)))} is not in the database")
         mirror_id = s.execute(
-            select(OrderType.id).where(OrderType.k == ot.k, OrderType.canonical_lambda == ot.mirror_lambda)
+            select(OrderType.id).where(OrderType.k == ot.k, OrderType.lambda_text == ot.mirror_lambda_text)
         ).scalar_one_or_none()
         reals = sorted(ot.realizations, key=lambda r: (-r.mp, r.id))
         infos = [
@@ -289,18 +355,18 @@ def get_order_type(db: Database, ident: str | int) -> OrderTypeDetail:
             for r in reals
         ]
         if not infos:
-            raise NotFoundError(f"order type {ot.canonical_lambda} has no realization")
+            raise NotFoundError(f"order type {ot.lambda_text} has no realization")
         summary = OrderTypeSummary(
             id=ot.id,
             k=ot.k,
-            lambda_text=ot.canonical_lambda,
+            lambda_text=ot.lambda_text,
             mp=infos[0].mp,
             points=infos[0].points,
             hull_size=ot.hull_size,
             unique_min=bool(ot.unique_min),
             minimal_orderings=ot.minimal_orderings,
             chiral=bool(ot.chiral),
-            mirror=ot.mirror_lambda,
+            mirror=ot.mirror_lambda_text,
             realizations=len(infos),
             number=ot.number,
         )
@@ -310,7 +376,23 @@ def get_order_type(db: Database, ident: str | int) -> OrderTypeDetail:
 
 
 def parse_points(text: str) -> NDArray[np.float64]:
-    """Parse ``"x,y x,y …"`` (also ``;`` separated) into a ``(k, 2)`` array; raises UsageError."""
+    """Parse a point list typed by a user.
+
+    Parameters
+    ----------
+    text : str
+        ``"x,y x,y …"`` (also ``;`` separated), 3 to 10 points.
+
+    Returns
+    -------
+    ndarray
+        ``(k, 2)`` float64 coordinates in the given order.
+
+    Raises
+    ------
+    UsageError
+        An unreadable point or a count outside 3 … 10.
+    """
     parts = [p for p in text.replace(";", " ").split() if p]
     pts = []
     for p in parts:
@@ -327,7 +409,25 @@ def parse_points(text: str) -> NDArray[np.float64]:
 
 
 def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
-    """Canonical ID of an ad-hoc ``(k, 2)`` point set and its database id, if stored."""
+    """Canonical ID of an ad-hoc point set and its database id, if stored.
+
+    Parameters
+    ----------
+    db : Database or None
+        Where to look the ID up (None: do not look).
+    points : array_like
+        ``(k, 2)`` coordinates, screen convention (x right, y down).
+
+    Returns
+    -------
+    IdResult
+        ID, figures, MP (coordinate units) and the database id and number when stored.
+
+    Raises
+    ------
+    GeneralPositionError
+        Three points are collinear (or two coincide).
+    """
     pts = np.asarray(points, dtype=np.float64)
     try:
         check_general_position(pts)
@@ -339,9 +439,7 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
     if db is not None:
         with db.session() as s:
             row = s.execute(
-                select(OrderType.id, OrderType.number).where(
-                    OrderType.k == form.k, OrderType.canonical_lambda == form.text
-                )
+                select(OrderType.id, OrderType.number).where(OrderType.k == form.k, OrderType.lambda_text == form.text)
             ).first()
             if row is not None:
                 found, number = int(row[0]), row[1]
@@ -360,6 +458,17 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
 
 
 def order_type_numbers(db: Database) -> dict[int, int | None]:
-    """Database id → universal number of every order type."""
+    """Universal number of every order type.
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+
+    Returns
+    -------
+    dict of int to (int or None)
+        Database id → universal number (None while its k is incomplete).
+    """
     with db.session() as s:
         return {int(i): n for i, n in s.execute(select(OrderType.id, OrderType.number)).all()}

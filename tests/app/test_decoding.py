@@ -12,8 +12,8 @@ import pytest
 from click.testing import CliRunner
 
 from ottag_db.app.decoding import load_camera
+from ottag_db.app.detector import detector_from_database
 from ottag_db.cli import cli
-from ottag_db.decode.detector import Detector
 from ottag_db.errors import UsageError
 from tests.support.paper import TABLE9
 
@@ -21,9 +21,9 @@ TABLE9_TEXT = "7:" + "".join(str(v) for row in TABLE9 for v in row)
 
 
 @pytest.fixture(scope="module")
-def dbfile(mirrors_db_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+def dbfile(bundled_db_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("decode") / "db.sqlite"
-    shutil.copyfile(mirrors_db_path, path)
+    shutil.copyfile(bundled_db_path, path)
     return path
 
 
@@ -100,9 +100,9 @@ def test_decode_bad_inputs(runner: CliRunner, dbfile: Path, fig4_png: Path, tmp_
 
 
 def test_detector_from_database_and_camera_files(dbfile: Path, fig4_png: Path, tmp_path: Path) -> None:
-    det = Detector.from_database(str(dbfile))
+    det = detector_from_database(str(dbfile))
     found = det.detect(cv2.imread(str(fig4_png)))
-    assert [d.lambda_ for d in found] == [TABLE9_TEXT]
+    assert [d.lambda_text for d in found] == [TABLE9_TEXT]
     assert found[0].model_points is not None
     yml = tmp_path / "cam.yml"
     fs = cv2.FileStorage(str(yml), cv2.FILE_STORAGE_WRITE)

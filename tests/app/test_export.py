@@ -1,50 +1,58 @@
-"""Tests of ottag_db.store.tags / ottag_db.app.export and the export and render commands (real PDF, real SQLite)."""
+"""Tests of ottag_db.app.export and ottag_db.store.tags on the bundled database (real PDF, real SQLite).
+
+Export only reads: layouts and placements come from the database, so it works on a read-only
+file and places nothing afresh.
+"""
 
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
 from pypdf import PdfReader
 
-from ottag_db.cli import cli
-from ottag_db.core.layout import validate_layout
+from ottag_db.app.export import (
+    TagFilter,
+    export_sheet,
+    render_tag,
+    resolve_tag,
+    select_for_export,
+    short_id,
+    tag_geometries,
+)
+from ottag_db.core.canonical import canonical_form
+from ottag_db.core.layout_check import validate_layout
+from ottag_db.errors import ExportError, NotFoundError, UsageError
+from ottag_db.printing.geometry import build_tag_geometries
+from ottag_db.printing.sheet import SheetOptions
 from ottag_db.store.db import open_database
+from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary
+from ottag_db.store.layouts import ensure_layouts
+from ottag_db.store.lookups import load_lookup
 from ottag_db.store.models import LayoutRow, Realization
-from ottag_db.store.tags import ensure_layouts, load_lookup, select_tags
+from ottag_db.store.queries import list_order_types
+from ottag_db.store.tags import select_tags
+from tests.support.database import dump_database
 from tests.support.paper import TABLE9
 
 TABLE9_TEXT = "7:" + "".join(str(v) for row in TABLE9 for v in row)
 MM = 72.0 / 25.4
 
 
-@pytest.fixture(scope="module")
-def laid_out_db(mirrors_db_path: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("layouts") / "layouts.sqlite"
-    shutil.copyfile(mirrors_db_path, path)
-    db = open_database(path)
-    try:
-        ensure_layouts(db)
-    finally:
-        db.close()
-    return path
-
-
 @pytest.fixture
-def db_copy(laid_out_db: Path, tmp_path: Path) -> Path:
+def db_copy(bundled_db_path: Path, tmp_path: Path) -> Path:
     path = tmp_path / "db.sqlite"
-    shutil.copyfile(laid_out_db, path)
+    shutil.copyfile(bundled_db_path, path)
     return path
 
 
-def test_every_stored_layout_is_valid(laid_out_db: Path) -> None:
-    db = open_database(laid_out_db)
+def test_every_stored_layout_is_valid(bundled_db_path: Path) -> None:
+    db = open_database(bundled_db_path)
     try:
+        assert ensure_layouts(db) == 0  # import stored them all
         with db.session() as s:
             rows = s.query(Realization, LayoutRow).join(LayoutRow, LayoutRow.realization_id == Realization.id).all()
             checked = {5: 0, 6: 0, 7: 0, 8: 0}
@@ -63,75 +71,86 @@ def test_every_stored_layout_is_valid(laid_out_db: Path) -> None:
         db.close()
 
 
-def test_every_layout_of_the_bundled_database_is_valid(tmp_path: Path) -> None:
-    from ottag_db.files.bundled import bundled_point_files
-    from ottag_db.store.importer import import_point_file
-
-    db = open_database(tmp_path / "bundled.sqlite")
-    try:
-        for path, k in bundled_point_files():
-            import_point_file(db, path, n=k, with_mirrors=True)
-        assert ensure_layouts(db) == 6673 - 2  # every realization but the two of k = 4
-        counts = {5: 0, 6: 0, 7: 0, 8: 0}
-        with db.session() as s:
-            pairs = s.query(Realization, LayoutRow).join(LayoutRow, LayoutRow.realization_id == Realization.id)
-            for real, lay in pairs:
-                pts = real.points()
-                assert validate_layout(pts, lay.triangle_list()) == [], (real.id, lay.triangles)
-                if len(pts) in counts:
-                    counts[len(pts)] += 1
-        assert counts == {5: 3, 6: 20, 7: 242, 8: 6405}
-    finally:
-        db.close()
-
-
-def test_select_tags_and_lookup(laid_out_db: Path) -> None:
-    db = open_database(laid_out_db)
+def test_select_tags_and_lookup(bundled_db_path: Path) -> None:
+    db = open_database(bundled_db_path)
     try:
         tags = select_tags(db, ks=[7], min_mp=6.0)
-        # Table 7: 15 seven-point sets with MP >= 6; 9 of them are chiral, so their mirrors count too.
-        assert len(tags) == 15 + 9
-        assert sum(t.chiral for t in tags) == 18
+        listed = list_order_types(db, ks=[7], min_mp=6.0)
+        assert [t.lambda_text for t in tags] == [o.lambda_text for o in listed]
+        assert [t.mp for t in tags] == [o.mp for o in listed]  # the tag is the best realization
         assert all(t.mp >= 6.0 and t.k == 7 for t in tags)
+        assert all((t.mirror in {u.lambda_text for u in tags}) for t in tags if t.chiral)  # both chiralities
+        assert select_tags(db, ks=[4]) == []  # k = 4 cannot be drawn
         lookup = load_lookup(db)
         assert len(lookup) == 1 + 2 + 3 + 20 + 242 + 6405
         entry = lookup.get(TABLE9_TEXT)
         assert entry is not None and entry.unique_min
-        assert entry.realizations[0].tolist() == [
-            [47, 175],
-            [149, 206],
-            [129, 178],
-            [206, 159],
-            [214, 127],
-            [176, 49],
-            [42, 144],
-        ]
+        # Lookup realizations are in canonical label order: their canonical labeling is the identity.
+        form = canonical_form(entry.realizations[0])
+        assert form.text == TABLE9_TEXT and form.labeling == tuple(range(7))
     finally:
         db.close()
 
 
-def test_export_sheet_dimensions(runner: CliRunner, db_copy: Path, tmp_path: Path) -> None:
+def test_geometry_from_stored_placements_equals_a_fresh_placement(bundled_db_path: Path) -> None:
+    db = open_database(bundled_db_path)
+    try:
+        tags = select_tags(db, ks=[6, 7, 8], min_mp=8.0)
+    finally:
+        db.close()
+    stored = tag_geometries(tags, "normal", 40.0)
+    for k in (6, 7, 8):
+        part = [t for t in tags if t.k == k]
+        fresh = build_tag_geometries(
+            np.stack([t.points for t in part]).astype(np.float64), [t.triangles for t in part], tag_size=40.0
+        )
+        assert [g for g, t in zip(stored, tags, strict=True) if t.k == k] == fresh
+    for g, t in zip(stored, tags, strict=True):
+        assert g.mp_unit == t.printed_mp_unit
+
+
+def test_export_reads_only(db_copy: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A read-only database file exports, its bytes stay the same and nothing is placed afresh."""
+
+    def no_placement(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("export must use the stored placements")
+
+    monkeypatch.setattr("ottag_db.printing.geometry.tag_placements", no_placement)
+    monkeypatch.setattr("ottag_db.store.layouts.tag_placements", no_placement)
+    before = db_copy.read_bytes()
+    db_copy.chmod(0o444)
+    db = open_database(f"sqlite:///file:{db_copy}?mode=ro&uri=true")
+    try:
+        rep = export_sheet(db, tmp_path / "ro.pdf", TagFilter(ks=(7,), min_mp=8.0), SheetOptions(), polarity="both")
+        assert rep.tags > 0 and (tmp_path / "ro.pdf").stat().st_size > 0
+        render_tag(db, TABLE9_TEXT, tmp_path / "t.svg")
+    finally:
+        db.close()
+    assert db_copy.read_bytes() == before
+
+
+def test_export_is_deterministic(db_copy: Path, tmp_path: Path) -> None:
+    db = open_database(db_copy)
+    try:
+        flt = TagFilter(ks=(6, 7), min_mp=7.0)
+        export_sheet(db, tmp_path / "a.pdf", flt, SheetOptions(), polarity="both")
+        before = dump_database(db_copy)
+        export_sheet(db, tmp_path / "b.pdf", flt, SheetOptions(), polarity="both")
+        assert dump_database(db_copy) == before
+    finally:
+        db.close()
+    assert (tmp_path / "a.pdf").read_bytes() == (tmp_path / "b.pdf").read_bytes()
+
+
+def test_export_sheet_dimensions(db_copy: Path, tmp_path: Path) -> None:
     out = tmp_path / "sheet.pdf"
-    res = runner.invoke(
-        cli,
-        [
-            "export",
-            "--db",
-            str(db_copy),
-            "-q",
-            "--k",
-            "6",
-            "--polarity",
-            "both",
-            "--tag-size",
-            "3cm",
-            "--page",
-            "Letter",
-            str(out),
-        ],
-    )
-    assert res.exit_code == 0, res.output
-    assert "40 tags" in res.stdout
+    db = open_database(db_copy)
+    try:
+        rep = export_sheet(db, out, TagFilter(ks=(6,)), SheetOptions(tag_size_mm=30.0, page="Letter"), polarity="both")
+        first = select_tags(db, ks=[6])[0].lambda_text
+    finally:
+        db.close()
+    assert rep.tags == 40
     reader = PdfReader(out)
     box = reader.pages[0].mediabox
     assert float(box.width) == pytest.approx(8.5 * 72, abs=0.01)
@@ -139,52 +158,74 @@ def test_export_sheet_dimensions(runner: CliRunner, db_copy: Path, tmp_path: Pat
     meta = reader.metadata
     assert meta is not None and meta.title and "ottag-db" in (meta.author or "")
     text = reader.pages[0].extract_text()
-    assert "100 %" in text and "30 mm" in text
+    assert "100 %" in text and "30 mm" in text and short_id(first) in text
 
 
-def test_export_bad_inputs(runner: CliRunner, db_copy: Path, tmp_path: Path) -> None:
-    cases = [
-        (["--page", "B7x"], 2, "page"),
-        (["--tag-size", "50"], 2, "needs a unit"),
-        (["--tag-size", "-5mm"], 2, "greater than zero"),
-        (["--tag-size", "400mm"], 1, "fit"),
-        (["--k", "8", "--min-mp", "50"], 1, "no tags match the filters"),
-        (["--k", "4"], 1, "no tags match"),
-    ]
-    for args, code, message in cases:
-        out = tmp_path / "x.pdf"
-        res = runner.invoke(cli, ["export", "--db", str(db_copy), "-q", *args, str(out)])
-        assert res.exit_code == code, (args, res.stdout, res.stderr)
-        assert message in res.stderr, (args, res.stderr)
-        assert not out.exists()
-    res = runner.invoke(cli, ["export", "--db", str(db_copy), "-q", "--k", "5", str(tmp_path / "nodir" / "x.pdf")])
-    assert res.exit_code == 1 and "does not exist" in res.stderr
-    if os.geteuid() != 0:  # root can write anywhere
-        locked = tmp_path / "locked"
-        locked.mkdir(mode=0o500)
-        res = runner.invoke(cli, ["export", "--db", str(db_copy), "-q", "--k", "5", str(locked / "x.pdf")])
-        assert res.exit_code == 1 and "cannot write" in res.stderr
+def test_export_bad_inputs(db_copy: Path, tmp_path: Path) -> None:
+    out = tmp_path / "x.pdf"
+    db = open_database(db_copy)
+    try:
+        cases: list[tuple[TagFilter, SheetOptions, str, type[Exception], str]] = [
+            (TagFilter(ks=(5,)), SheetOptions(tag_size_mm=400.0), "normal", ExportError, "fit"),
+            (TagFilter(ks=(8,), min_mp=50.0), SheetOptions(), "normal", ExportError, "no tags match the filters"),
+            (TagFilter(ks=(4,)), SheetOptions(), "normal", ExportError, "no tags match"),
+            (TagFilter(ks=(5,)), SheetOptions(), "sideways", UsageError, "polarity"),
+        ]
+        for flt, opts, polarity, error, message in cases:
+            with pytest.raises(error, match=message):
+                export_sheet(db, out, flt, opts, polarity=polarity)
+            assert not out.exists()
+        with pytest.raises(ExportError, match="does not exist"):
+            export_sheet(db, tmp_path / "nodir" / "x.pdf", TagFilter(ks=(5,)), SheetOptions())
+        with pytest.raises(ExportError, match="directory"):
+            export_sheet(db, tmp_path, TagFilter(ks=(5,)), SheetOptions())
+    finally:
+        db.close()
 
 
-def test_render_png_and_svg(runner: CliRunner, db_copy: Path, tmp_path: Path) -> None:
+def test_filters_by_ids_and_dictionary_sheet(db_copy: Path, tmp_path: Path) -> None:
+    db = open_database(db_copy)
+    try:
+        fig4 = resolve_tag(db, TABLE9_TEXT)
+        other = select_tags(db, ks=[5])[0]
+        both = select_for_export(db, TagFilter(ids=(TABLE9_TEXT, str(other.order_type_id))))
+        assert [t.lambda_text for t in both] == [other.lambda_text, fig4.lambda_text]  # by k, then λ
+        assert resolve_tag(db, str(fig4.order_type_id)).lambda_text == TABLE9_TEXT
+        with pytest.raises(NotFoundError):
+            resolve_tag(db, "4:0210001221001200")  # k = 4: no layout
+        create_dictionary(db, "robots", DictionaryOptions(ks=(7,), polarity="both", max_size=20))
+        rep = export_sheet(db, tmp_path / "d.pdf", TagFilter(), SheetOptions(), dictionary="robots")
+        assert rep.tags == 20
+        text = PdfReader(tmp_path / "d.pdf").pages[0].extract_text()
+        assert "robots tag 0" in text and "dictionary robots" in text
+    finally:
+        db.close()
+
+
+def test_short_id_is_stable() -> None:
+    assert short_id(TABLE9_TEXT).startswith("7-") and len(short_id(TABLE9_TEXT)) == 10
+    assert short_id(TABLE9_TEXT) == short_id(TABLE9_TEXT) != short_id("3:011001100")
+
+
+def test_render_png_and_svg(db_copy: Path, tmp_path: Path) -> None:
     import cv2
 
-    png = tmp_path / "t.png"
-    res = runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(png), "--px", "200"])
-    assert res.exit_code == 0, res.output
-    img = cv2.imread(str(png), cv2.IMREAD_GRAYSCALE)
-    assert img.shape == (300, 300)  # 200 px data area + 2 × 50 px quiet zone
-    assert img[5, 5] == 255 and img[60, 60] == 0
-    inv = tmp_path / "i.png"
-    assert (
-        runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(inv), "--polarity", "inverted"]).exit_code
-        == 0
-    )
-    assert cv2.imread(str(inv), cv2.IMREAD_GRAYSCALE)[5, 5] == 0
-    svg = tmp_path / "t.svg"
-    assert runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(svg)]).exit_code == 0
-    assert svg.read_text().lstrip().startswith("<")
-    bad = runner.invoke(cli, ["render", "--db", str(db_copy), TABLE9_TEXT, str(tmp_path / "t.gif")])
-    assert bad.exit_code == 2 and ".png or .svg" in bad.stderr
-    k4 = runner.invoke(cli, ["render", "--db", str(db_copy), "4:0210001221001200", str(tmp_path / "k4.png")])
-    assert k4.exit_code == 1
+    db = open_database(db_copy)
+    try:
+        png = tmp_path / "t.png"
+        render_tag(db, TABLE9_TEXT, png, px=200)
+        img = cv2.imread(str(png), cv2.IMREAD_GRAYSCALE)
+        assert img.shape == (300, 300)  # 200 px data area + 2 × 50 px quiet zone
+        assert img[5, 5] == 255 and img[60, 60] == 0
+        inv = tmp_path / "i.png"
+        render_tag(db, TABLE9_TEXT, inv, polarity="inverted")
+        assert cv2.imread(str(inv), cv2.IMREAD_GRAYSCALE)[5, 5] == 0
+        svg = tmp_path / "t.svg"
+        render_tag(db, TABLE9_TEXT, svg)
+        assert svg.read_text().lstrip().startswith("<")
+        with pytest.raises(UsageError, match=r"\.png or \.svg"):
+            render_tag(db, TABLE9_TEXT, tmp_path / "t.gif")
+        with pytest.raises(NotFoundError):
+            render_tag(db, "4:0210001221001200", tmp_path / "k4.png")
+    finally:
+        db.close()

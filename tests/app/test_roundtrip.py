@@ -1,7 +1,7 @@
 """Round trip: database → PDF tag sheet → raster page → decoder → the same IDs and polarities.
 
 Covered: every order type with k = 5, 6 and 7 and every 20th with k = 8 (in export order, by k
-then λ; about 320 of 6405), of a database built from the reference files with mirrors, each in
+then λ; about 320 of 6405), of the bundled database (imported with mirrors: every order type), each in
 both polarities (normal then inverted, as ``export_sheet(polarity="both")`` draws them), on A4
 sheets with the default 40 mm tags, rasterized with pdfium at 150 and 300 dpi (grey, anti-aliased,
 no blur or noise). Every tag must decode at its own cell with the right order type and polarity,
@@ -20,8 +20,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ottag_db.app.detector import detector_from_database
 from ottag_db.app.export import TagFilter, export_sheet, select_for_export
-from ottag_db.decode.detector import Detection, Detector
+from ottag_db.decode import Detection
 from ottag_db.printing.sheet import SheetOptions
 from ottag_db.store.db import open_database
 from ottag_db.store.tags import TagRecord
@@ -47,9 +48,9 @@ def _cluster_1d(values: list[float], gap: float) -> list[float]:
 
 
 @pytest.fixture(scope="module")
-def sheet(mirrors_db_path: Path, tmp_path_factory: pytest.TempPathFactory):
+def sheet(bundled_db_path: Path, tmp_path_factory: pytest.TempPathFactory):
     """The exported PDF, its report and the tags in sheet order ((record, polarity) per cell)."""
-    db = open_database(mirrors_db_path)
+    db = open_database(bundled_db_path)
     try:
         k8 = select_for_export(db, TagFilter(ks=(8,)))[::K8_STEP]
         small = select_for_export(db, TagFilter(ks=(5, 6, 7)))
@@ -67,9 +68,9 @@ def sheet(mirrors_db_path: Path, tmp_path_factory: pytest.TempPathFactory):
 
 
 @pytest.mark.parametrize("dpi", DPIS)
-def test_sheet_round_trip(sheet, mirrors_db_path: Path, dpi: int, capsys) -> None:
+def test_sheet_round_trip(sheet, bundled_db_path: Path, dpi: int, capsys) -> None:
     pdf, report, cells = sheet
-    det = Detector.from_database(str(mirrors_db_path))
+    det = detector_from_database(str(bundled_db_path))
     px_per_mm = dpi / 25.4
     size_px = report.tag_size_mm * px_per_mm
     doc = pdfium.PdfDocument(str(pdf))
@@ -107,9 +108,11 @@ def test_sheet_round_trip(sheet, mirrors_db_path: Path, dpi: int, capsys) -> Non
     excused: list[str] = []
     for index, (tag, pol) in enumerate(cells):
         dets = found.get(index, [])
-        right = [d for d in dets if d.lambda_ == tag.lambda_text and d.polarity == pol]
+        right = [d for d in dets if d.lambda_text == tag.lambda_text and d.polarity == pol]
         wrong.extend(
-            f"cell {index}: #{tag.order_type_id} {pol} read as {d.lambda_} {d.polarity}" for d in dets if d not in right
+            f"cell {index}: #{tag.order_type_id} {pol} read as {d.lambda_text} {d.polarity}"
+            for d in dets
+            if d not in right
         )
         if right:
             assert right[0].order_type_id == tag.order_type_id

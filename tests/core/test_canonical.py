@@ -51,10 +51,10 @@ def test_text_form_round_trip_and_errors() -> None:
             parse_lambda_text(bad)
 
 
-def test_reference_counts(reference_sets: dict[int, np.ndarray]) -> None:
+def test_order_type_counts(point_sets: dict[int, np.ndarray]) -> None:
     # Tables 2 and 3, and the counts with mirrors.
     expected = {3: (1, 0, 1), 4: (2, 0, 2), 5: (3, 2, 3), 6: (16, 11, 20), 7: (135, 131, 242), 8: (3315, 3303, 6405)}
-    for k, pts in reference_sets.items():
+    for k, pts in point_sets.items():
         batch = canonical_batch(pts)
         mirror = canonicalize_lambdas(mirror_lambdas(lambda_matrices(pts)))
         ids = set(batch.texts())
@@ -68,8 +68,8 @@ def test_fig4_is_record_2_of_the_7_point_file(reference_sets: dict[int, np.ndarr
     assert canonical_lambda(reference_sets[7][2]) == TABLE9_TEXT
 
 
-def test_labeling_reproduces_the_canonical_matrix(reference_sets: dict[int, np.ndarray]) -> None:
-    pts = reference_sets[8]
+def test_labeling_reproduces_the_canonical_matrix(point_sets: dict[int, np.ndarray]) -> None:
+    pts = point_sets[8]
     batch = canonical_batch(pts)
     lam = lambda_matrices(pts)
     idx = np.arange(len(pts))[:, None, None]
@@ -77,10 +77,10 @@ def test_labeling_reproduces_the_canonical_matrix(reference_sets: dict[int, np.n
     assert np.array_equal(relabeled, batch.lambdas)
 
 
-def test_single_set_orderings_agree_with_the_batch(reference_sets: dict[int, np.ndarray]) -> None:
+def test_single_set_orderings_agree_with_the_batch(point_sets: dict[int, np.ndarray]) -> None:
     """canonical_orderings (single-set path): its smallest matrix and the number of orderings
-    reaching it equal the batched canonicalization's, for every 7-point reference set."""
-    pts = reference_sets[7]
+    reaching it equal the batched canonicalization's, for every 7-point set."""
+    pts = point_sets[7]
     batch = canonical_batch(pts)
     for b in range(len(pts)):
         orderings = canonical_orderings(pts[b])
@@ -163,8 +163,8 @@ def test_reflection_changes_id_exactly_for_chiral_sets(idx: int, axis: int) -> N
     assert (canonical_lambda(reflected) != canonical_lambda(pts)) == chiral
 
 
-def test_reflection_on_reference_sets(reference_sets: dict[int, np.ndarray]) -> None:
-    pts = reference_sets[7].astype(float)
+def test_reflection_on_point_sets(point_sets: dict[int, np.ndarray]) -> None:
+    pts = point_sets[7].astype(float)
     reflected = pts.copy()
     reflected[..., 0] = 255 - reflected[..., 0]
     a = canonical_batch(pts).texts()

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ottag_db.core.canonical import canonical_batch, canonical_lambda
 from ottag_db.core.flips import flip_neighbours
@@ -48,8 +50,8 @@ def test_convex_pentagon_neighbours() -> None:
     assert g[three] - {three} == {four}
 
 
-def test_symmetry_and_mirrors(reference_sets: dict[int, np.ndarray]) -> None:
-    pts, texts = _complete(reference_sets[7])
+def test_symmetry_and_mirrors(point_sets: dict[int, np.ndarray]) -> None:
+    pts, texts = _complete(point_sets[7])
     assert len(texts) == 242
     g = _graph(pts, texts)
     for a, nbrs in g.items():
@@ -64,8 +66,8 @@ def test_symmetry_and_mirrors(reference_sets: dict[int, np.ndarray]) -> None:
         assert {mirror_of[b] for b in nbrs} == g[mirror_of[a]]
 
 
-def test_every_edge_differs_by_exactly_one_triple(reference_sets: dict[int, np.ndarray]) -> None:
-    pts, texts = _complete(reference_sets[6])
+def test_every_edge_differs_by_exactly_one_triple(point_sets: dict[int, np.ndarray]) -> None:
+    pts, texts = _complete(point_sets[6])
     left = orientation_tensor(pts) < 0
     edges = flip_neighbours(pts, texts)
     assert edges
@@ -79,3 +81,14 @@ def test_every_edge_differs_by_exactly_one_triple(reference_sets: dict[int, np.n
         assert canonical_lambda(target) == texts[e.target]
         diff = (left[e.source] != flipped).sum()
         assert diff == 6
+
+
+@settings(deadline=None, max_examples=20)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_edges_do_not_depend_on_the_order_of_the_list(bundled_sets: dict[int, np.ndarray], seed: int) -> None:
+    pts, texts = _complete(bundled_sets[6])
+    perm = np.random.default_rng(seed).permutation(len(texts))
+    shuffled = [texts[i] for i in perm]
+    want = {(texts[e.source], texts[e.target]) for e in flip_neighbours(pts, texts)}
+    got = {(shuffled[e.source], shuffled[e.target]) for e in flip_neighbours(pts[perm], shuffled)}
+    assert got == want

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+from itertools import combinations
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from ottag_db.core.canonical import relabel_lambda
+from ottag_db.core.canonical import mirror_lambdas, relabel_lambda
 from ottag_db.core.geometry import (
+    analyse_point_sets,
     check_general_position,
     general_position_mask,
     hull_size,
@@ -16,6 +21,9 @@ from ottag_db.core.geometry import (
     maximal_perturbation,
     maximal_perturbations,
     orientation_tensor,
+    triple_figures,
+    triple_indices,
+    triple_orientations,
 )
 from ottag_db.errors import GeneralPositionError
 from tests.support.paper import FIG4, FIG8, TABLE9
@@ -80,3 +88,75 @@ def test_general_position_errors_name_the_points() -> None:
     with pytest.raises(GeneralPositionError, match=r"record 12"):
         check_general_position(np.array([[[0, 0], [1, 1], [2, 2]]]), record_offset=12)
     assert general_position_mask(np.array([FIG8, [[0, 0], [1, 1], [2, 2], [3, 7], [9, 1]]])).tolist() == [True, False]
+
+
+# ----------------------------------------------------------------------------- properties
+def _grid_sets(seed: int, k: int, count: int = 20) -> np.ndarray:
+    """Random integer sets on the 256 × 256 grid in general position."""
+    sets = np.random.default_rng(seed).integers(0, 256, size=(count, k, 2))
+    return sets[general_position_mask(sets)]
+
+
+def test_triple_indices_are_the_combinations() -> None:
+    for n in range(3, 11):
+        a, b, c = triple_indices(n)
+        assert list(zip(a.tolist(), b.tolist(), c.tolist(), strict=True)) == list(combinations(range(n), 3))
+        assert not a.flags.writeable
+
+
+@settings(deadline=None, max_examples=60)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(3, 10), scale=st.sampled_from([1.0, 1e-3, 255.0, 1e4]))
+def test_triple_orientations_are_the_tensor_at_the_triples(seed: int, k: int, scale: float) -> None:
+    pts = np.random.default_rng(seed).random((5, k, 2)) * scale
+    a, b, c = triple_indices(k)
+    assert np.array_equal(triple_orientations(pts), orientation_tensor(pts)[:, a, b, c])  # bit for bit
+
+
+@settings(deadline=None, max_examples=60)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(3, 10))
+def test_both_orientation_forms_agree_exactly_on_the_grid(seed: int, k: int) -> None:
+    pts = np.random.default_rng(seed).integers(0, 65536, size=(10, k, 2))
+    d, longest = triple_figures(pts)
+    assert np.array_equal(d, triple_orientations(pts))
+    a, b, c = triple_indices(k)
+    sides = np.linalg.norm(pts[:, [a, b, a]] - pts[:, [b, c, c]], axis=-1)  # (B, 3, T)
+    assert np.allclose(longest, sides.max(axis=1), rtol=1e-12)
+    ok = general_position_mask(pts)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mp = 0.5 * (np.abs(d) / longest).min(axis=1)
+    assert np.allclose(mp[ok], maximal_perturbations(pts[ok]), rtol=1e-12)
+
+
+@settings(deadline=None, max_examples=60)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    k=st.integers(3, 9),
+    dx=st.integers(-1000, 1000),
+    dy=st.integers(-1000, 1000),
+    turns=st.integers(0, 3),
+    factor=st.integers(1, 50),
+)
+def test_lambda_and_mp_under_translation_rotation_and_scaling(
+    seed: int, k: int, dx: int, dy: int, turns: int, factor: int
+) -> None:
+    pts = _grid_sets(seed, k)
+    moved = pts + np.array([dx, dy])
+    for _ in range(turns):  # quarter turns keep orientation and integer coordinates
+        moved = np.stack([-moved[..., 1], moved[..., 0]], axis=-1)
+    assert np.array_equal(lambda_matrices(moved), lambda_matrices(pts))
+    assert np.allclose(maximal_perturbations(moved), maximal_perturbations(pts), rtol=1e-12)
+    assert np.allclose(maximal_perturbations(pts * factor), factor * maximal_perturbations(pts), rtol=1e-12)
+    analysis = analyse_point_sets(pts)
+    assert analysis.general_position.all()
+    assert np.array_equal(analysis.lambdas, lambda_matrices(pts))
+    assert np.allclose(analysis.mp, maximal_perturbations(pts), rtol=1e-12)
+
+
+@settings(deadline=None, max_examples=60)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(3, 9), axis=st.sampled_from([0, 1]))
+def test_reflection_complements_lambda(seed: int, k: int, axis: int) -> None:
+    pts = _grid_sets(seed, k)
+    reflected = pts.copy()
+    reflected[..., axis] = 255 - reflected[..., axis]
+    assert np.array_equal(lambda_matrices(reflected), mirror_lambdas(lambda_matrices(pts)))
+    assert np.array_equal(hull_sizes(lambda_matrices(reflected)), hull_sizes(lambda_matrices(pts)))

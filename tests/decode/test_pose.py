@@ -8,12 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from ottag_db.decode.detector import Detector
-from ottag_db.decode.pose import estimate_pose, placement_from_detection
+from ottag_db.core.geometry import maximal_perturbation
+from ottag_db.decode import Detector, estimate_pose, placement_from_detection
 from ottag_db.errors import UsageError
-from tests.support import tagsynth as ts
-
-pytestmark = pytest.mark.skipif(ts.aichholzer_dir() is None, reason="OTTAG_AICHHOLZER_DIR is not set")
+from ottag_db.printing import scenes as sc
+from tests.support.tagsynth import scene_data
 
 SIZE = 0.1  # data-area side, metres
 
@@ -24,19 +23,19 @@ def _rot_err_deg(r1: np.ndarray, r2: np.ndarray) -> float:
 
 
 @pytest.fixture(scope="module")
-def setup():
-    lookup, records = ts.reference_lookup(ts.aichholzer_dir())  # type: ignore[arg-type]
-    good = [r for r in records if r["mp"] >= 6.0 and r["k"] >= 7]
+def setup(bundled_db_path):
+    lookup, tags = scene_data(bundled_db_path)
+    good = [t for t in tags if t.k >= 7 and maximal_perturbation(t.points) >= 6.0]
     return lookup, good
 
 
 def _poses(n: int, seed: int):
     rng = np.random.default_rng(seed)
-    k_mat = ts.camera_matrix()
+    k_mat = sc.camera_matrix()
     for _ in range(n):
         width = rng.uniform(120, 220)
         tilt = rng.uniform(0, 60)
-        r_mat, t = ts.random_pose(rng, k_mat, SIZE, width, tilt, (320 + rng.uniform(-40, 40), 240))
+        r_mat, t = sc.random_pose(rng, k_mat, SIZE, width, tilt, (320 + rng.uniform(-40, 40), 240))
         yield rng, k_mat, r_mat, t
 
 
@@ -49,17 +48,15 @@ def test_pose_accuracy_vs_aruco(setup, capsys):
     marker = cv2.aruco.generateImageMarker(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250), 3, 400)
     marker = cv2.copyMakeBorder(marker, 100, 100, 100, 100, cv2.BORDER_CONSTANT, value=255)
     ours_r, ours_t, aru_r, aru_t = [], [], [], []
-    layouts: dict[bytes, list[tuple[int, int, int]]] = {}
     for i, (rng, k_mat, r_mat, t) in enumerate(_poses(12, 7)):
         rec = good[int(rng.integers(len(good)))]
-        pts = np.asarray(rec["points"])
-        layouts.setdefault(pts.tobytes(), ts.layout_triangles(pts))
-        hom = ts.pose_homography(k_mat, r_mat, t, SIZE)
-        spec = ts.TagSpec(pts, layouts[pts.tobytes()], hom, "normal" if i % 2 == 0 else "inverted")
-        scene = ts.render_scene((480, 640), [spec], rng, blur=0.6, noise=2.0)
-        found = [d for d in det.detect(scene.image) if d.lambda_ == rec["lambda"]]
+        hom = sc.pose_homography(k_mat, r_mat, t, SIZE)
+        pol = "normal" if i % 2 == 0 else "inverted"
+        spec = sc.TagSpec(rec.points, rec.triangles, hom, pol, placement=rec.placement)
+        scene = sc.render_scene((480, 640), [spec], rng, blur=0.6, noise=2.0)
+        found = [d for d in det.detect(scene.image) if d.lambda_text == rec.lambda_text]
         assert found, f"pose scene {i}: tag not decoded"
-        pose = estimate_pose(found[0], k_mat, None, SIZE, ts.PLACEMENT)
+        pose = estimate_pose(found[0], k_mat, None, SIZE, rec.placement)
         ours_r.append(_rot_err_deg(pose.R, r_mat))
         ours_t.append(float(np.linalg.norm(pose.tvec - t) / np.linalg.norm(t)))
         assert len(pose.solutions) >= 1 and pose.reprojection_error_px < 1.0
@@ -70,7 +67,7 @@ def test_pose_accuracy_vs_aruco(setup, capsys):
         assert _rot_err_deg(est.R, r_mat) < 2.0
         # the same pose with an ArUco marker of the same size (patch = marker incl. white margin)
         hom_m = hom @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
-        aru_scene = ts.render_scene((480, 640), [], rng, blur=0.6, noise=2.0, extra=[(marker, hom_m)])
+        aru_scene = sc.render_scene((480, 640), [], rng, blur=0.6, noise=2.0, extra=[(marker, hom_m)])
         corners, ids, _ = aruco.detectMarkers(aru_scene.image)
         assert ids is not None and len(ids) == 1
         h = SIZE / 2
@@ -97,25 +94,24 @@ def test_pose_accuracy_vs_aruco(setup, capsys):
 def test_placement_estimate_matches_renderer(setup):
     lookup, good = setup
     rng = np.random.default_rng(3)
-    k_mat = ts.camera_matrix()
+    k_mat = sc.camera_matrix()
     rec = good[0]
-    pts = np.asarray(rec["points"])
-    r_mat, t = ts.random_pose(rng, k_mat, SIZE, 200, 20, (320, 240))
-    spec = ts.TagSpec(pts, ts.layout_triangles(pts), ts.pose_homography(k_mat, r_mat, t, SIZE))
-    scene = ts.render_scene((480, 640), [spec], rng, blur=0.5)
+    r_mat, t = sc.random_pose(rng, k_mat, SIZE, 200, 20, (320, 240))
+    spec = sc.TagSpec(rec.points, rec.triangles, sc.pose_homography(k_mat, r_mat, t, SIZE), placement=rec.placement)
+    scene = sc.render_scene((480, 640), [spec], rng, blur=0.5)
     d = Detector(lookup).detect(scene.image)[0]
     aff = placement_from_detection(d)
-    assert np.allclose(aff, ts.PLACEMENT, atol=0.01)
+    assert np.allclose(aff, rec.placement, atol=0.01)
 
 
 def test_pose_bad_arguments(setup):
     lookup, good = setup
     rng = np.random.default_rng(4)
-    k_mat = ts.camera_matrix()
-    pts = np.asarray(good[1]["points"])
-    r_mat, t = ts.random_pose(rng, k_mat, SIZE, 180, 10, (320, 240))
-    spec = ts.TagSpec(pts, ts.layout_triangles(pts), ts.pose_homography(k_mat, r_mat, t, SIZE))
-    d = Detector(lookup).detect(ts.render_scene((480, 640), [spec], rng).image)[0]
+    k_mat = sc.camera_matrix()
+    rec = good[1]
+    r_mat, t = sc.random_pose(rng, k_mat, SIZE, 180, 10, (320, 240))
+    spec = sc.TagSpec(rec.points, rec.triangles, sc.pose_homography(k_mat, r_mat, t, SIZE), placement=rec.placement)
+    d = Detector(lookup).detect(sc.render_scene((480, 640), [spec], rng).image)[0]
     with pytest.raises(UsageError):
         estimate_pose(d, np.eye(2), None, SIZE)
     with pytest.raises(UsageError):

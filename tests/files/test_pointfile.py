@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ottag_db.errors import PointFileError
+from ottag_db.files.bundled import bundled_point_files
 from ottag_db.files.pointfile import (
     OFFICIAL_RECORD_COUNTS,
     file_sha256,
@@ -16,6 +18,9 @@ from ottag_db.files.pointfile import (
     read_point_file,
     write_point_file,
 )
+
+#: The bundled data always; Aichholzer's reference files as an extra layer when configured.
+SOURCES = ["bundled"] + (["reference"] if os.environ.get("OTTAG_AICHHOLZER_DIR") else [])
 
 
 def test_round_trip_b08_and_b16(tmp_path: Path) -> None:
@@ -40,10 +45,28 @@ def test_streaming_chunks_cover_the_file(tmp_path: Path) -> None:
     assert np.array_equal(np.concatenate([c for _, c in chunks]), pts)
 
 
-def test_official_names_give_n(otdb_dir: Path) -> None:
+@pytest.fixture(params=SOURCES)
+def official_dir(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
+    """A folder with ``otypes03.b08`` … ``otypes08.b08``: the bundled records under the official
+    names (same record counts), or Aichholzer's files as the extra layer."""
+    if request.param == "reference":
+        otdb: Path = request.getfixturevalue("otdb_dir")
+        return otdb
+    for path, k in bundled_point_files():
+        (tmp_path / f"otypes{k:02d}.b08").write_bytes(path.read_bytes())
+    return tmp_path
+
+
+def test_official_names_give_n(official_dir: Path) -> None:
     for k in range(3, 9):
-        info = inspect_point_file(otdb_dir / f"otypes{k:02d}.b08")
+        info = inspect_point_file(official_dir / f"otypes{k:02d}.b08")
         assert (info.n, info.bits, info.records, info.official) == (k, 8, OFFICIAL_RECORD_COUNTS[k], True)
+
+
+def test_bundled_names_give_n() -> None:
+    for path, k in bundled_point_files():
+        info = inspect_point_file(path)
+        assert (info.n, info.bits, info.records, info.official) == (k, 8, OFFICIAL_RECORD_COUNTS[k], False)
 
 
 def test_sha256(tmp_path: Path) -> None:

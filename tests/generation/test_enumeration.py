@@ -3,28 +3,26 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from ottag_db.app.generating import file_name, generate_database
 from ottag_db.core.canonical import canonical_batch, canonicalize_lambdas, mirror_lambdas
 from ottag_db.core.geometry import lambda_matrices, maximal_perturbations
+from ottag_db.core.types import COMPLETE_COUNTS, MP_THRESHOLDS
 from ottag_db.errors import UsageError
-from ottag_db.files.pointfile import file_sha256, read_point_file
-from ottag_db.generation.enumeration import (
-    MP_THRESHOLDS,
-    enumerate_order_types,
-    file_name,
-    generate_database,
-    insertion_candidates,
-    mirror_points,
-    relative_mp,
-)
+from ottag_db.files.bundled import bundled_manifest
+from ottag_db.files.pointfile import OFFICIAL_RECORD_COUNTS, file_sha256
+from ottag_db.files.resources import data_dir
+from ottag_db.generation.arrangement import insertion_candidates
+from ottag_db.generation.enumeration import EnumeratedSet, enumerate_order_types, mirror_points
+from ottag_db.generation.objective import relative_mp
 
-DATA = Path(__file__).resolve().parents[1] / "data"
-COUNTS = {3: 1, 4: 2, 5: 3, 6: 16, 7: 135, 8: 3315}
-WITH_MIRRORS = {3: 1, 4: 2, 5: 3, 6: 20, 7: 242, 8: 6405}
+#: The bundled data always; Aichholzer's reference files as an extra layer when configured.
+SOURCES = ["bundled"] + (["reference"] if os.environ.get("OTTAG_AICHHOLZER_DIR") else [])
 #: Paper's Table 7: number of reference sets with MP ≥ v, v = 0.5, 1.0, …, 9.0.
 PAPER_TABLE7 = {
     8: (3315, 3296, 1240, 642, 371, 231, 135, 83, 56, 37, 26, 15, 10, 6, 5, 4, 3, 3),
@@ -40,24 +38,33 @@ def texts_with_mirrors(points: np.ndarray) -> set[str]:
     return set(canonicalize_lambdas(lam).texts()) | set(canonicalize_lambdas(mirror_lambdas(lam)).texts())
 
 
+@pytest.fixture(params=SOURCES)
+def point_sets(request: pytest.FixtureRequest) -> dict[int, np.ndarray]:
+    """Point sets per k of one source (``bundled_sets`` or ``reference_sets``)."""
+    sets: dict[int, np.ndarray] = request.getfixturevalue(f"{request.param}_sets")
+    return sets
+
+
 @pytest.fixture(scope="module")
-def enumerated() -> dict:
+def enumerated() -> dict[int, list[EnumeratedSet]]:
     return enumerate_order_types(7)
 
 
-def test_counts_up_to_7(enumerated: dict) -> None:
+def test_counts_up_to_7(enumerated: dict[int, list[EnumeratedSet]]) -> None:
     for k in range(3, 8):
-        assert len(enumerated[k]) == WITH_MIRRORS[k], k
-        assert sum(r.representative for r in enumerated[k]) == COUNTS[k], k
+        assert len(enumerated[k]) == COMPLETE_COUNTS[k], k
+        assert sum(r.representative for r in enumerated[k]) == OFFICIAL_RECORD_COUNTS[k], k
 
 
-def test_ids_equal_reference_up_to_7(enumerated: dict, reference_sets: dict) -> None:
+def test_ids_equal_reference_up_to_7(
+    enumerated: dict[int, list[EnumeratedSet]], point_sets: dict[int, np.ndarray]
+) -> None:
     for k in range(3, 8):
         got = {r.text for r in enumerated[k]}
-        assert got == texts_with_mirrors(reference_sets[k]), k
+        assert got == texts_with_mirrors(point_sets[k]), k
 
 
-def test_realizations_carry_their_ids(enumerated: dict) -> None:
+def test_realizations_carry_their_ids(enumerated: dict[int, list[EnumeratedSet]]) -> None:
     for k in range(3, 8):
         reals = enumerated[k]
         pts = np.stack([r.points for r in reals])
@@ -70,13 +77,13 @@ def test_realizations_carry_their_ids(enumerated: dict) -> None:
         assert (relative_mp(pts) > 1e-6).all()
 
 
-def test_mirror_points_gives_mirror_ids(enumerated: dict) -> None:
+def test_mirror_points_gives_mirror_ids(enumerated: dict[int, list[EnumeratedSet]]) -> None:
     reals = enumerated[6]
     mirrored = mirror_points(np.stack([r.points for r in reals]))
     assert canonical_batch(mirrored).texts() == [r.mirror_text for r in reals]
 
 
-def test_enumeration_is_deterministic(enumerated: dict) -> None:
+def test_enumeration_is_deterministic(enumerated: dict[int, list[EnumeratedSet]]) -> None:
     again = enumerate_order_types(6)
     for k in range(3, 7):
         assert [r.text for r in again[k]] == [r.text for r in enumerated[k]]
@@ -120,6 +127,7 @@ def test_generate_small_database_twice_is_identical(tmp_path: Path) -> None:
     assert rep1.manifest.read_text() == rep2.manifest.read_text()
     manifest = json.loads(rep1.manifest.read_text())
     assert manifest["seed"] == 7
+    assert manifest["version"] == "0.1.0"
     assert manifest["files"]["6"]["records"] == 16
     assert manifest["files"]["6"]["sha256"] == file_sha256(tmp_path / "a" / "ottag-k06.b08")
     assert rep1.mp_table[6][0] == 16 and len(rep1.mp_table[6]) == len(MP_THRESHOLDS)
@@ -127,35 +135,26 @@ def test_generate_small_database_twice_is_identical(tmp_path: Path) -> None:
 
 
 # --------------------------------------------------------------------------------------------
-# The bundled files in data/
+# The bundled files (data/ in the repository, ottag_db.data in the wheel)
 # --------------------------------------------------------------------------------------------
 
-needs_data = pytest.mark.skipif(not (DATA / "manifest.json").exists(), reason="data/ has not been generated")
 
-
-@pytest.fixture(scope="module")
-def bundled() -> dict[int, np.ndarray]:
-    return {k: read_point_file(DATA / file_name(k), k) for k in range(3, 9)}
-
-
-@needs_data
-def test_bundled_manifest(bundled: dict) -> None:
-    manifest = json.loads((DATA / "manifest.json").read_text())
+def test_bundled_manifest(bundled_sets: dict[int, np.ndarray]) -> None:
+    manifest = bundled_manifest()
     for k in range(3, 9):
         entry = manifest["files"][str(k)]
         assert entry["file"] == file_name(k)
-        assert entry["records"] == COUNTS[k] == bundled[k].shape[0]
-        assert entry["order_types_with_mirrors"] == WITH_MIRRORS[k]
-        assert entry["sha256"] == file_sha256(DATA / file_name(k))
-        mp = maximal_perturbations(bundled[k])
+        assert entry["records"] == OFFICIAL_RECORD_COUNTS[k] == bundled_sets[k].shape[0]
+        assert entry["order_types_with_mirrors"] == COMPLETE_COUNTS[k]
+        assert entry["sha256"] == file_sha256(data_dir() / file_name(k))
+        mp = maximal_perturbations(bundled_sets[k])
         counts = manifest["mp_summary"]["counts_at_least"][str(k)]
         assert counts == [int((mp >= v).sum()) for v in MP_THRESHOLDS]
 
 
-@needs_data
-def test_bundled_files_are_sorted_representatives(bundled: dict) -> None:
+def test_bundled_files_are_sorted_representatives(bundled_sets: dict[int, np.ndarray]) -> None:
     for k in range(3, 9):
-        lam = lambda_matrices(bundled[k])
+        lam = lambda_matrices(bundled_sets[k])
         texts = canonicalize_lambdas(lam).texts()
         mirrors = canonicalize_lambdas(mirror_lambdas(lam)).texts()
         assert texts == sorted(texts)
@@ -163,15 +162,13 @@ def test_bundled_files_are_sorted_representatives(bundled: dict) -> None:
         assert all(t <= m for t, m in zip(texts, mirrors, strict=True))
 
 
-@needs_data
-def test_bundled_ids_equal_reference(bundled: dict, reference_sets: dict) -> None:
+def test_bundled_ids_equal_reference(bundled_sets: dict[int, np.ndarray], reference_sets: dict) -> None:
     for k in range(3, 9):
-        assert texts_with_mirrors(bundled[k]) == texts_with_mirrors(reference_sets[k]), k
+        assert texts_with_mirrors(bundled_sets[k]) == texts_with_mirrors(reference_sets[k]), k
 
 
-@needs_data
-def test_bundled_mp(bundled: dict) -> None:
-    mp = {k: maximal_perturbations(bundled[k]) for k in range(3, 9)}
+def test_bundled_mp(bundled_sets: dict[int, np.ndarray]) -> None:
+    mp = {k: maximal_perturbations(bundled_sets[k]) for k in range(3, 9)}
     # Every count of the paper's Table 7 is matched or beaten.
     for k, row in PAPER_TABLE7.items():
         ours = [int((mp[k] >= v).sum()) for v in MP_THRESHOLDS]

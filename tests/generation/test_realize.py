@@ -8,22 +8,18 @@ import pytest
 from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.geometry import general_position_mask, maximal_perturbations
 from ottag_db.errors import UsageError
-from ottag_db.generation.realize import (
-    GRID_MAX,
-    RealizeEffort,
-    grid_mp,
-    integer_local_search,
-    maximize_mp,
-    optimize_continuous,
-    realize_all,
-    set_rng,
-)
+from ottag_db.generation.continuous import optimize_continuous
+from ottag_db.generation.effort import RealizeEffort
+from ottag_db.generation.objective import GRID_MAX, grid_mp
+from ottag_db.generation.realize import maximize_mp, realize_all, set_rng
+from ottag_db.generation.rounding import exact_roundings, integer_local_search, tilt_failures
+from tests.support import paper
 
 FAST = RealizeEffort(starts=2, hops=1, roundings=8, searched_roundings=2)
 
 # Paper Fig. 4 (a 7-point tag) and Fig. 8 (a 5-point set).
-FIG4 = np.array([[206, 159], [214, 127], [176, 49], [42, 144], [47, 175], [129, 178], [149, 206]], float)
-FIG8 = np.array([[0, 0], [69, 255], [149, 116], [138, 72], [255, 69]], float)
+FIG4 = np.array(paper.FIG4, float)
+FIG8 = np.array(paper.FIG8, float)
 
 
 def _triple_signs(points: np.ndarray) -> np.ndarray:
@@ -130,8 +126,6 @@ def test_set_rng_depends_on_seed_and_id() -> None:
 
 
 def test_tilt_failures_track_small_mp() -> None:
-    from ottag_db.generation.realize import tilt_failures
-
     good = np.array([[0, 0], [255, 0], [128, 255]], float)[None]
     assert tilt_failures(good).shape == (1,)
     # 216 strongly tilted views; a fat triangle survives more of them than a thin one.
@@ -140,12 +134,10 @@ def test_tilt_failures_track_small_mp() -> None:
 
 
 def test_exact_roundings_and_hard_effort() -> None:
-    from ottag_db.generation.realize import _exact_roundings
-
     signs = _triple_signs(FIG4[None])[0]
     eff = RealizeEffort(starts=2, hops=0, roundings=8, searched_roundings=2, hard_below=np.inf, exact_variants=2)
     cont, _ = optimize_continuous(FIG4, np.random.default_rng(0), eff)
-    cands = _exact_roundings(cont, signs, eff, np.random.default_rng(1))
+    cands = exact_roundings(cont, signs, eff, np.random.default_rng(1))
     assert cands.shape == (2 * eff.exact_keep, 7, 2)
     assert np.array_equal(cands, np.rint(cands)) and cands.min() >= 0 and cands.max() <= GRID_MAX
     # The best floor/ceiling rounding keeps the order type and is at least as good as plain rounding.

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import io
-import os
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,20 +11,14 @@ from scipy.ndimage import map_coordinates
 
 from ottag_db.core.canonical import canonical_lambda
 from ottag_db.core.geometry import maximal_perturbation
-from ottag_db.core.layout import compute_layout, validate_layout
+from ottag_db.core.layout import compute_layout
+from ottag_db.core.layout_check import validate_layout
 from ottag_db.core.placement import tag_placement
 from ottag_db.errors import UsageError
-from ottag_db.files.pointfile import read_point_file
-from ottag_db.printing.render import (
-    MM_TO_PT,
-    TagGeometry,
-    build_tag_geometries,
-    build_tag_geometry,
-    draw_tag_pdf,
-    raster_positions,
-    render_raster,
-    render_svg,
-)
+from ottag_db.printing.geometry import TagGeometry, build_tag_geometries, build_tag_geometry
+from ottag_db.printing.pdf import MM_TO_PT, draw_tag_pdf
+from ottag_db.printing.raster import raster_positions, render_raster
+from ottag_db.printing.svg import render_svg
 
 SET5 = np.array([(20, 20), (230, 40), (200, 230), (60, 200), (120, 110)])
 SET6 = np.array([(77, 63), (191, 206), (78, 215), (224, 137), (149, 56), (27, 145)])
@@ -185,19 +177,22 @@ def test_placement_keeps_order_type_margin_and_improves_mp() -> None:
         assert validate_layout(geom.points_array, geom.triangles) == []
 
 
-def test_reference_sets_place_and_keep_their_order_type() -> None:
-    env = os.environ.get("OTTAG_AICHHOLZER_DIR")
-    if not env:
-        pytest.skip("OTTAG_AICHHOLZER_DIR is not set (folder with the reference otypesNN.b08 files)")
-    sets = read_point_file(Path(env) / "otypes07.b08")
+def test_bundled_sets_place_and_keep_their_order_type(bundled_sets: dict[int, np.ndarray]) -> None:
     from ottag_db.core.layout import compute_layouts
 
+    sets = bundled_sets[7]
     layouts = compute_layouts(sets)
     geoms = build_tag_geometries(sets, [lay.triangles for lay in layouts], tag_size=40.0)
     for pts, g in zip(sets, geoms, strict=True):
         assert canonical_lambda(g.points_array) == canonical_lambda(pts)
         assert g.quiet_zone == 10.0 and g.total_size == 60.0
         assert g.mp_mm > 0
+    # Given placements are used as they are (here: the same maps, so the same geometries).
+    maps = np.array([g.transform for g in geoms])
+    again = build_tag_geometries(sets, [lay.triangles for lay in layouts], tag_size=40.0, placements=maps)
+    assert again == geoms
+    with pytest.raises(ValueError, match="placements"):
+        build_tag_geometries(sets, [lay.triangles for lay in layouts], placements=maps[:3])
 
 
 def test_geometry_helpers_and_bad_input() -> None:

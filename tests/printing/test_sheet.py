@@ -12,7 +12,8 @@ from pypdf.generic import ContentStream
 
 from ottag_db.core.layout import compute_layout
 from ottag_db.errors import ExportError, UsageError
-from ottag_db.printing.render import MM_TO_PT, TagGeometry, build_tag_geometry
+from ottag_db.printing.geometry import TagGeometry, build_tag_geometry
+from ottag_db.printing.pdf import MM_TO_PT
 from ottag_db.printing.sheet import (
     RULER_LENGTH_MM,
     SheetOptions,

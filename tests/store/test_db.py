@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import shutil
 import sqlite3
 from pathlib import Path
 
 import pytest
 from alembic import command
 from sqlalchemy import text
+from sqlalchemy.exc import OperationalError
 
 from ottag_db.errors import DatabaseError
 from ottag_db.store.db import _alembic_config, head_revision, open_database, resolve_database_url
@@ -96,3 +98,42 @@ def test_older_revision_is_backed_up_then_migrated(tmp_path: Path) -> None:
         con.close()
     finally:
         db.close()
+
+
+def test_migration_0004_stores_missing_layouts(bundled_db_path: Path, tmp_path: Path) -> None:
+    """A database of revision 0003 without layouts gets them on opening (after a backup)."""
+    path = tmp_path / "old.sqlite"
+    shutil.copyfile(bundled_db_path, path)
+    con = sqlite3.connect(path)
+    stored = con.execute("SELECT realization_id, triangles, placement FROM layouts ORDER BY realization_id").fetchall()
+    con.execute("DELETE FROM layouts WHERE realization_id % 40 = 0")  # some of every k
+    con.execute("UPDATE alembic_version SET version_num = '0003'")
+    con.commit()
+    assert con.execute("SELECT count(*) FROM layouts").fetchone()[0] < len(stored)
+    con.close()
+    db = open_database(path)
+    try:
+        assert db.current_revision() == head_revision()
+        assert db.backup is not None and db.backup.exists()
+    finally:
+        db.close()
+    con = sqlite3.connect(path)
+    again = con.execute("SELECT realization_id, triangles, placement FROM layouts ORDER BY realization_id").fetchall()
+    con.close()
+    assert again == stored  # the same layouts and placements as the import stored
+
+
+def test_read_only_uri_resolves_to_the_file_and_opens_without_writing(bundled_db_path: Path, tmp_path: Path) -> None:
+    path = tmp_path / "ro.sqlite"
+    shutil.copyfile(bundled_db_path, path)
+    url = f"sqlite:///file:{path}?mode=ro&uri=true"
+    assert resolve_database_url(url) == (url, path.resolve())
+    before = path.read_bytes()
+    db = open_database(url)
+    try:
+        assert db.current_revision() == head_revision()
+        with pytest.raises(OperationalError, match="readonly"), db.engine.begin() as conn:
+            conn.exec_driver_sql("DELETE FROM layouts")
+    finally:
+        db.close()
+    assert path.read_bytes() == before

@@ -1,4 +1,4 @@
-"""Tests of ottag_db.store.dictionaries and the dictionary commands (real SQLite, both chiralities)."""
+"""Tests of the stored flip graph, dictionaries, dictionary files and lookups (bundled data, real SQLite)."""
 
 from __future__ import annotations
 
@@ -7,35 +7,39 @@ import shutil
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
 from sqlalchemy import select
 
-from ottag_db.cli import cli
-from ottag_db.errors import DictionaryError
+from ottag_db.errors import DictionaryError, NotFoundError, OttagError, UsageError
+from ottag_db.files.bundled import bundled_point_files
 from ottag_db.store.db import open_database
 from ottag_db.store.dictionaries import (
     DictionaryOptions,
     create_dictionary,
-    ensure_flip_graph,
+    delete_dictionary,
     get_dictionary,
-    neighbours,
+    list_dictionaries,
 )
+from ottag_db.store.dictionary_files import export_dictionary, import_dictionary
+from ottag_db.store.flipgraph import ensure_flip_graph, neighbours
 from ottag_db.store.importer import import_point_file
+from ottag_db.store.lookups import dictionary_lookup, neighbour_members
 from ottag_db.store.models import FlipEdgeRow, OrderType
+
+BUNDLED = dict((k, p) for p, k in bundled_point_files())
 
 
 @pytest.fixture
-def mdb(mirrors_db_path: Path, tmp_path: Path) -> Path:
+def mdb(bundled_db_path: Path, tmp_path: Path) -> Path:
     path = tmp_path / "m.sqlite"
-    shutil.copyfile(mirrors_db_path, path)
+    shutil.copyfile(bundled_db_path, path)
     return path
 
 
-def test_universal_numbers_are_ranks_and_stable(mdb: Path, otdb_dir: Path, tmp_path: Path) -> None:
+def test_universal_numbers_are_ranks_and_stable(mdb: Path, tmp_path: Path) -> None:
     db = open_database(mdb)
     try:
         with db.session() as s:
-            rows = s.execute(select(OrderType.k, OrderType.canonical_lambda, OrderType.number)).all()
+            rows = s.execute(select(OrderType.k, OrderType.lambda_text, OrderType.number)).all()
     finally:
         db.close()
     by_k: dict[int, list[tuple[str, int]]] = {}
@@ -47,27 +51,25 @@ def test_universal_numbers_are_ranks_and_stable(mdb: Path, otdb_dir: Path, tmp_p
     # Rebuilt in another order: the same numbers.
     other = open_database(tmp_path / "other.sqlite")
     try:
-        for k in (8, 7, 6, 5, 4, 3):
-            import_point_file(other, otdb_dir / f"otypes{k:02d}.b08", with_mirrors=True)
+        for k in (7, 6, 5, 4, 3):
+            import_point_file(other, BUNDLED[k], n=k, with_mirrors=True)
         with other.session() as s:
-            again = {
-                (k, t): n for k, t, n in s.execute(select(OrderType.k, OrderType.canonical_lambda, OrderType.number))
-            }
+            again = {(k, t): n for k, t, n in s.execute(select(OrderType.k, OrderType.lambda_text, OrderType.number))}
     finally:
         other.close()
-    assert again == {(k, t): n for k, t, n in rows}
+    assert again == {(k, t): n for k, t, n in rows if k <= 7}
 
 
-def test_incomplete_k_has_no_numbers_and_no_flip_graph(reference_db_path: Path, tmp_path: Path) -> None:
-    path = tmp_path / "r.sqlite"
-    shutil.copyfile(reference_db_path, path)
-    db = open_database(path)
+def test_incomplete_k_has_no_numbers_and_no_flip_graph(tmp_path: Path) -> None:
+    db = open_database(tmp_path / "r.sqlite")
     try:
+        for k in (5, 7):
+            import_point_file(db, BUNDLED[k], n=k)  # no mirrors: k = 7 lacks the chiral twins
         with db.session() as s:
-            assert s.execute(select(OrderType.number).where(OrderType.k == 8)).scalars().first() is None
+            assert s.execute(select(OrderType.number).where(OrderType.k == 7)).scalars().first() is None
             assert s.execute(select(OrderType.number).where(OrderType.k == 5)).scalars().first() is not None
-        with pytest.raises(DictionaryError, match="needs every order type of 8 points"):
-            ensure_flip_graph(db, [8])
+        with pytest.raises(DictionaryError, match="needs every order type of 7 points"):
+            ensure_flip_graph(db, [7])
     finally:
         db.close()
 
@@ -95,46 +97,47 @@ def test_d2_dictionary_has_no_internal_edge(mdb: Path) -> None:
         db.close()
 
 
-def test_cli_create_export_import_round_trip(runner: CliRunner, mdb: Path, tmp_path: Path) -> None:
-    db = str(mdb)
-    res = runner.invoke(
-        cli, ["dictionary", "create", "--db", db, "-q", "robots", "--k", "7", "--polarity", "both", "--max-size", "20"]
-    )
-    assert res.exit_code == 0, res.output
-    assert "robots: 20 tags" in res.stdout
-    out = tmp_path / "robots.json"
-    res = runner.invoke(cli, ["dictionary", "export", "--db", db, "robots", "-o", str(out)])
-    assert res.exit_code == 0, res.output
-    data = json.loads(out.read_text())
-    assert data["name"] == "robots" and data["min_flip_distance"] == 2
-    tag0 = data["tags"][0]
-    assert {"number", "lambda", "k", "polarity", "points", "triangles", "mp"} <= set(tag0)
-    assert [t["polarity"] for t in data["tags"][:2]] == ["normal", "inverted"]
-    res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(out)])
-    assert res.exit_code == 1 and "exists already" in res.stderr
-    res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(out), "--name", "robots2"])
-    assert res.exit_code == 0, res.output
-    again = runner.invoke(cli, ["dictionary", "export", "--db", db, "robots2"]).stdout
-    data2 = json.loads(again)
-    assert data2["tags"] == data["tags"] and data2["parameters"] == data["parameters"]
-    listing = runner.invoke(cli, ["dictionary", "list", "--db", db]).stdout
-    assert "robots\t20 tags" in listing and "robots2\t20 tags" in listing
-    csv_text = runner.invoke(cli, ["dictionary", "export", "--db", db, "robots", "--format", "csv"]).stdout
-    assert csv_text.splitlines()[0].startswith("number,lambda,k,polarity")
-    assert runner.invoke(cli, ["dictionary", "delete", "--db", db, "robots2"]).exit_code == 0
-    assert runner.invoke(cli, ["dictionary", "show", "--db", db, "robots2"]).exit_code == 1
-    sheet = tmp_path / "robots.pdf"
-    res = runner.invoke(cli, ["export", "--db", db, "-q", "--dictionary", "robots", str(sheet)])
-    assert res.exit_code == 0 and "20 tags" in res.stdout
+def test_create_export_import_round_trip(mdb: Path) -> None:
+    db = open_database(mdb)
+    try:
+        info = create_dictionary(db, "robots", DictionaryOptions(ks=(7,), polarity="both", max_size=20))
+        assert len(info.members) == 20 and info.min_flip_distance == 2
+        data = json.loads(export_dictionary(db, "robots"))
+        assert data["name"] == "robots" and data["min_flip_distance"] == 2
+        assert {"number", "lambda", "k", "polarity", "points", "triangles", "mp"} <= set(data["tags"][0])
+        assert [t["polarity"] for t in data["tags"][:2]] == ["normal", "inverted"]
+        text = json.dumps(data)
+        with pytest.raises(DictionaryError, match="exists already"):
+            import_dictionary(db, text)
+        import_dictionary(db, text, name="robots2")
+        data2 = json.loads(export_dictionary(db, "robots2"))
+        assert data2["tags"] == data["tags"] and data2["parameters"] == data["parameters"]
+        assert [(n, size) for n, _, size, _ in list_dictionaries(db)] == [("robots", 20), ("robots2", 20)]
+        assert export_dictionary(db, "robots", "csv").splitlines()[0].startswith("number,lambda,k,polarity")
+        with pytest.raises(UsageError):
+            export_dictionary(db, "robots", "xml")
+        assert delete_dictionary(db, "robots2") == 20
+        with pytest.raises(NotFoundError):
+            get_dictionary(db, "robots2")
+        # Decoder lookups: only the members, each with its tag numbers per polarity.
+        lookup = dictionary_lookup(db, "robots")
+        assert len(lookup) == 10 and lookup.ks == frozenset({7})
+        first = lookup.get(data["tags"][0]["lambda"])
+        assert first is not None and first.tag == 0 and first.extra["tags"] == {"normal": 0, "inverted": 1}
+        near = neighbour_members(db, "robots")
+        assert near and set(near.values()) <= {t["number"] for t in data["tags"]}
+        assert not set(near) & {t["lambda"] for t in data["tags"]}  # distance 2: no member is a neighbour
+    finally:
+        db.close()
 
 
-def test_dictionary_numbers_identical_after_rebuild(otdb_dir: Path, tmp_path: Path) -> None:
+def test_dictionary_numbers_identical_after_rebuild(tmp_path: Path) -> None:
     exports = []
-    for run in range(2):
+    for run, order in enumerate([(5, 6, 7), (7, 6, 5)]):
         db = open_database(tmp_path / f"rebuild{run}.sqlite")
         try:
-            for k in (5, 6, 7):
-                import_point_file(db, otdb_dir / f"otypes{k:02d}.b08", with_mirrors=True)
+            for k in order:
+                import_point_file(db, BUNDLED[k], n=k, with_mirrors=True)
             create_dictionary(db, "d", DictionaryOptions(ks=(6, 7), min_flip_distance=2))
             exports.append([(m.number, m.lambda_text, m.universal_number) for m in get_dictionary(db, "d").members])
         finally:
@@ -142,22 +145,18 @@ def test_dictionary_numbers_identical_after_rebuild(otdb_dir: Path, tmp_path: Pa
     assert exports[0] == exports[1]
 
 
-def test_bad_dictionary_inputs(runner: CliRunner, mdb: Path, tmp_path: Path) -> None:
-    db = str(mdb)
-    res = runner.invoke(cli, ["dictionary", "create", "--db", db, "bad name!"])
-    assert res.exit_code == 2 and "dictionary name" in res.stderr
-    res = runner.invoke(cli, ["dictionary", "create", "--db", db, "x", "--k", "8", "--min-mp", "99"])
-    assert res.exit_code == 1 and "no order type matches" in res.stderr
-    bad = tmp_path / "bad.json"
-    bad.write_text("{not json")
-    res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(bad)])
-    assert res.exit_code == 1 and "not JSON" in res.stderr
-    bad.write_text(
-        json.dumps(
-            {"name": "z", "tags": [{"number": 0, "lambda": "5:0321000321100322100332101", "polarity": "normal"}]}
-        )
-    )
-    res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(bad)])
-    assert res.exit_code != 0
-    res = runner.invoke(cli, ["dictionary", "import", "--db", db, str(tmp_path / "missing.json")])
-    assert res.exit_code == 1 and "cannot read" in res.stderr
+def test_bad_dictionary_inputs(mdb: Path) -> None:
+    db = open_database(mdb)
+    try:
+        with pytest.raises(UsageError, match="dictionary name"):
+            create_dictionary(db, "bad name!", DictionaryOptions())
+        with pytest.raises(DictionaryError, match="no order type matches"):
+            create_dictionary(db, "x", DictionaryOptions(ks=(8,), min_mp=99.0))
+        with pytest.raises(DictionaryError, match="not JSON"):
+            import_dictionary(db, "{not json")
+        unknown = {"name": "z", "tags": [{"number": 0, "lambda": "5:0321000321100322100332101", "polarity": "normal"}]}
+        with pytest.raises(OttagError, match="diagonal"):
+            import_dictionary(db, json.dumps(unknown))
+        assert list_dictionaries(db) == []
+    finally:
+        db.close()

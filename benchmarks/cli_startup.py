@@ -1,0 +1,82 @@
+"""Wall time of short ``ottag-db`` commands against ``python -c "import numpy"``, measured in one run.
+
+Each command runs in a fresh process (start-up included, as a user sees it). The rounds are
+interleaved — numpy, --version, stats, id, numpy, … — so that load on the machine touches all
+of them alike; the best of the rounds is reported with its ratio to the numpy baseline.
+``stats`` and ``id`` read a database built first in a temporary folder with
+``ottag-db import --quiet`` (the bundled data). Target: ``--version`` at most 1.5 × numpy.
+
+Usage: python benchmarks/cli_startup.py [--rounds N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+#: The point set of the paper's Fig. 8 (an order type of 5 points in the bundled data).
+FIG8_POINTS = "0,0 69,255 149,116 138,72 255,69"
+TARGET_VERSION_RATIO = 1.5
+
+
+def _ottag_db() -> list[str]:
+    """The installed console script next to this interpreter, else ``python -m ottag_db``."""
+    script = Path(sys.executable).with_name("ottag-db")
+    if script.exists():
+        return [str(script)]
+    found = shutil.which("ottag-db")
+    return [found] if found else [sys.executable, "-m", "ottag_db"]
+
+
+def _run(cmd: list[str]) -> float:
+    """Seconds of wall time of one run of ``cmd``; a failing command stops the benchmark."""
+    t = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    elapsed = time.perf_counter() - t
+    if proc.returncode != 0:
+        sys.exit(f"error: {' '.join(cmd)} exited with {proc.returncode}:\n{proc.stderr.strip()}")
+    return elapsed
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=7, help="interleaved rounds; the best is reported [7]")
+    args = parser.parse_args(argv)
+    if args.rounds < 1:
+        parser.error(f"--rounds must be at least 1, got {args.rounds}")
+    tool = _ottag_db()
+    with tempfile.TemporaryDirectory() as tmp:
+        db = str(Path(tmp) / "db.sqlite")
+        t = time.perf_counter()
+        _run([*tool, "import", "--db", db, "--quiet"])
+        print(f"database built with `ottag-db import --quiet` in {time.perf_counter() - t:.1f} s")
+        commands = {
+            'python -c "import numpy"': [sys.executable, "-c", "import numpy"],
+            "ottag-db --version": [*tool, "--version"],
+            "ottag-db stats": [*tool, "stats", "--db", db],
+            f'ottag-db id "{FIG8_POINTS}"': [*tool, "id", "--db", db, FIG8_POINTS],
+        }
+        for cmd in commands.values():  # warm the file cache; not timed
+            _run(cmd)
+        times: dict[str, list[float]] = {name: [] for name in commands}
+        for _ in range(args.rounds):
+            for name, cmd in commands.items():
+                times[name].append(_run(cmd))
+    baseline = min(times['python -c "import numpy"'])
+    print(f"best of {args.rounds} interleaved rounds (median in brackets), ratio to the numpy baseline:")
+    for name, values in times.items():
+        best, median = min(values), statistics.median(values)
+        print(f"  {name:<52} {best * 1000:7.0f} ms ({median * 1000:5.0f} ms)  {best / baseline:5.2f}×")
+    ratio = min(times["ottag-db --version"]) / baseline
+    verdict = "met" if ratio <= TARGET_VERSION_RATIO else "NOT met"
+    print(f"target --version <= {TARGET_VERSION_RATIO}× numpy: {verdict} ({ratio:.2f}×)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,192 @@
+"""Use case ``ottag-db generate``: re-create the bundled data from scratch.
+
+Combines :mod:`ottag_db.generation` (enumerate every order type, realize each on the 8-bit grid
+with maximal MP) with :mod:`ottag_db.files` (write ``ottag-kNN.b08`` and ``manifest.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.types import MP_THRESHOLDS, StageProgress
+from ottag_db.errors import UsageError
+from ottag_db.files.pointfile import file_sha256, write_point_file
+from ottag_db.generation.enumeration import enumerate_order_types
+
+__all__ = ["GenerationReport", "file_name", "generate_database"]
+
+
+@dataclass(frozen=True)
+class GenerationReport:
+    """Summary of :func:`generate_database`.
+
+    - ``records``: ``{k: sets in the file}`` (one per reflection pair);
+    - ``with_mirrors``: ``{k: order types counting both chiralities}``;
+    - ``files``: ``{k: path of ottag-kNN.b08}``; ``manifest``: path of manifest.json;
+    - ``mp_thresholds``: the values v (grid units) of ``mp_table``;
+    - ``mp_table``: ``{k: (number of sets with MP ≥ v for each v)}`` (paper's Table 7);
+    - ``mp_min``: ``{k: smallest MP of the file}`` (grid units);
+    - ``seed``; ``seconds``: wall time per stage ("enumerate", "realize", "total").
+    """
+
+    records: dict[int, int]
+    with_mirrors: dict[int, int]
+    files: dict[int, Path]
+    manifest: Path
+    mp_thresholds: tuple[float, ...]
+    mp_table: dict[int, tuple[int, ...]]
+    mp_min: dict[int, float]
+    seed: int
+    seconds: dict[str, float]
+
+
+def _tool_version() -> str:
+    """``ottag_db.__version__`` if the package defines it, else "0.1.0"."""
+    # Read from sys.modules: generation may not import the package root (import direction),
+    # and the root is always imported before one of its sub-packages.
+    version = getattr(sys.modules.get("ottag_db"), "__version__", None)
+    return version if isinstance(version, str) else "0.1.0"
+
+
+def file_name(k: int) -> str:
+    """Name of the bundled point-set file of ``k`` points.
+
+    Parameters
+    ----------
+    k : int
+        Number of points.
+
+    Returns
+    -------
+    str
+        ``ottag-kNN.b08``.
+    """
+    return f"ottag-k{k:02d}.b08"
+
+
+def generate_database(
+    max_k: int = 8,
+    out_dir: Path = Path("data"),
+    seed: int = 0,
+    jobs: int = 1,
+    progress: StageProgress | None = None,
+) -> GenerationReport:
+    """Enumerate all order types of 3 … ``max_k`` points, realize each reflection pair on the
+    [0, 255]² grid with a large MP and write ``ottag-kNN.b08`` plus ``manifest.json``.
+
+    Each file holds one set per reflection pair (the chirality whose ID text is smaller),
+    sorted by that ID text: a drop-in replacement of the reference ``otypesNN.b08``. The
+    output depends only on ``seed`` (not on ``jobs``, the number of processes); two runs
+    with the same seed write identical files. ``progress(stage, done, total)`` reports
+    the stages ("enumerate k=…", "realize k=…", "write").
+
+    Parameters
+    ----------
+    max_k : int, optional
+        Largest number of points, 3 … 8.
+    out_dir : Path, optional
+        Folder to write into (created when missing).
+    seed : int, optional
+        Run seed of the realization.
+    jobs : int, optional
+        Number of processes (≥ 1).
+    progress : StageProgress, optional
+        ``progress(stage, done, total)``.
+
+    Returns
+    -------
+    GenerationReport
+        Counts, paths, the MP table (grid units) and timings (seconds).
+
+    Raises
+    ------
+    UsageError
+        For ``max_k`` outside 3 … 8 or ``jobs < 1``.
+    """
+    if not 3 <= max_k <= 8:
+        raise UsageError(f"max_k must be between 3 and 8, got {max_k}")
+    if jobs < 1:
+        raise UsageError(f"jobs must be at least 1, got {jobs}")
+    # Imported here: the realization needs SciPy, which `import ottag_db.generation.database`
+    # (e.g. by the CLI at start-up) should not load.
+    from ottag_db.generation.realize import realize_all
+
+    t0 = time.perf_counter()
+    types = enumerate_order_types(max_k, progress=progress, jobs=jobs)
+    t1 = time.perf_counter()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    realized: dict[int, NDArray[np.int64]] = {}
+    mps: dict[int, NDArray[np.float64]] = {}
+    for k in range(3, max_k + 1):
+        reps = sorted((r for r in types[k] if r.representative), key=lambda r: r.text)
+        sets = realize_all(
+            [r.points for r in reps],
+            [r.text for r in reps],
+            seed=seed,
+            jobs=jobs,
+            progress=progress,
+            stage=f"realize k={k}",
+        )
+        realized[k] = np.stack([s.points for s in sets])
+        mps[k] = np.array([s.mp for s in sets])
+    t2 = time.perf_counter()
+    ks = list(range(3, max_k + 1))
+    if progress is not None:
+        progress("write", 0, len(ks))
+    files: dict[int, Path] = {}
+    entries: dict[str, dict[str, object]] = {}
+    for n, k in enumerate(ks, start=1):
+        path = out / file_name(k)
+        write_point_file(path, realized[k], bits=8)
+        files[k] = path
+        entries[str(k)] = {
+            "file": path.name,
+            "points": k,
+            "records": int(realized[k].shape[0]),
+            "order_types_with_mirrors": len(types[k]),
+            "sha256": file_sha256(path),
+            "mp_min": round(float(mps[k].min()), 6),
+            "mp_median": round(float(np.median(mps[k])), 6),
+        }
+        if progress is not None:
+            progress("write", n, len(ks))
+    table = {k: tuple(int((mps[k] >= v).sum()) for v in MP_THRESHOLDS) for k in ks}
+    manifest = {
+        "format": "ottag-db order-type point sets",
+        "tool": "ottag-db",
+        "version": _tool_version(),
+        "seed": seed,
+        "grid": [0, 255],
+        "description": (
+            "One integer realization per order type and reflection pair (the chirality with "
+            "the smaller canonical ID text), sorted by that ID; .b08 records of k (x, y) uint8 "
+            "points. MP is half the smallest distance from a point to a line through two others."
+        ),
+        "files": entries,
+        "mp_summary": {
+            "thresholds": list(MP_THRESHOLDS),
+            "counts_at_least": {str(k): list(table[k]) for k in ks},
+        },
+    }
+    manifest_path = out / "manifest.json"
+    manifest_path.write_text(json.dumps(manifest, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    t3 = time.perf_counter()
+    return GenerationReport(
+        records={k: int(realized[k].shape[0]) for k in ks},
+        with_mirrors={k: len(types[k]) for k in ks},
+        files=files,
+        manifest=manifest_path,
+        mp_thresholds=MP_THRESHOLDS,
+        mp_table=table,
+        mp_min={k: float(mps[k].min()) for k in ks},
+        seed=seed,
+        seconds={"enumerate": t1 - t0, "realize": t2 - t1, "total": t3 - t0},
+    )

@@ -1,0 +1,91 @@
+"""Importing point files: which files with which options (the bundled data when none are
+named), and the totals over several files.
+
+The import itself is :func:`ottag_db.store.importer.import_point_file`, one transaction per
+file; a caller runs the plan's jobs in order and reports on each.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ottag_db.files.bundled import bundled_point_files
+
+if TYPE_CHECKING:
+    from ottag_db.store.importer import ImportReport
+
+__all__ = ["ImportJob", "ImportPlan", "ImportTotals", "import_totals", "plan_import"]
+
+
+@dataclass(frozen=True)
+class ImportJob:
+    """One file to import: ``points`` per record, or None to read it from the name ``otypesNN``."""
+
+    path: Path
+    points: int | None
+
+
+@dataclass(frozen=True)
+class ImportPlan:
+    """The files to import, in order, and whether to store the mirror of every chiral record."""
+
+    jobs: tuple[ImportJob, ...]
+    with_mirrors: bool
+
+
+@dataclass(frozen=True)
+class ImportTotals:
+    """Sums over the reports of several imported files."""
+
+    records: int
+    new_order_types: int
+    new_realizations: int
+
+
+def plan_import(files: Sequence[Path], points: int | None = None, with_mirrors: bool | None = None) -> ImportPlan:
+    """What ``ottag-db import`` imports for the given files and options.
+
+    Parameters
+    ----------
+    files : sequence of Path
+        Point files (.b08/.b16); empty for the bundled data (every order type of 3 … 8 points,
+        one per reflection pair).
+    points : int or None
+        Points per record of every named file; None reads it from each file's name. Ignored for
+        the bundled data, whose point counts are known.
+    with_mirrors : bool or None
+        Store the mirror image of every chiral record; None for the default: on for the
+        bundled data (so it holds every order type, as the CLI promises), off for named files.
+
+    Returns
+    -------
+    ImportPlan
+        The jobs in order and the mirror setting that applies to all of them.
+    """
+    if files:
+        return ImportPlan(tuple(ImportJob(Path(p), points) for p in files), bool(with_mirrors))
+    jobs = tuple(ImportJob(p, k) for p, k in bundled_point_files())
+    return ImportPlan(jobs, True if with_mirrors is None else with_mirrors)
+
+
+def import_totals(reports: Sequence[ImportReport]) -> ImportTotals:
+    """Records read and order types/realizations added over several imports.
+
+    Parameters
+    ----------
+    reports : sequence of ImportReport
+        One report per imported file (skipped files count with their zeros).
+
+    Returns
+    -------
+    ImportTotals
+        The sums.
+    """
+    return ImportTotals(
+        records=sum(r.records for r in reports),
+        new_order_types=sum(r.new_order_types for r in reports),
+        new_realizations=sum(r.new_realizations for r in reports),
+    )

@@ -1,0 +1,118 @@
+"""Image stage: any image array → 8-bit grey, and the Otsu split of a grey-level histogram."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.errors import DecodeError
+
+__all__ = ["OtsuSplit", "otsu", "to_gray"]
+
+
+def to_gray(image: object) -> NDArray[np.uint8]:
+    """Convert an image array to 8-bit grey; raises :class:`DecodeError` for non-images.
+
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)``, ``(H, W, 1)``, ``(H, W, 3)`` (BGR) or ``(H, W, 4)`` (BGRA) array of uint8,
+        uint16 (÷ 257; 12-bit data, maximum < 4096, × 255 / 4095), other integers (shifted to 0
+        and scaled by 255 / range when outside 0…255), bool or floats (``[0, 1]`` scaled to
+        255, otherwise clipped to ``[0, 255]``; NaN → 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W)`` uint8, C-contiguous; an empty input gives an empty ``(0, 0)`` array.
+    """
+    if not isinstance(image, np.ndarray):
+        try:
+            image = np.asarray(image)
+        except Exception as exc:  # pragma: no cover - exotic objects
+            raise DecodeError(f"not an image array: {type(image).__name__}") from exc
+    arr: NDArray[Any] = image
+    if arr.dtype == object or arr.dtype.kind not in "biuf":
+        raise DecodeError(f"not an image array: dtype {arr.dtype} (expected integer, bool or float)")
+    if arr.size == 0:
+        return np.zeros((0, 0), dtype=np.uint8)
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] not in (3, 4)):
+        raise DecodeError(f"not an image array: shape {arr.shape} (expected (H, W), (H, W, 3) BGR or (H, W, 4) BGRA)")
+    if arr.dtype != np.uint8:
+        if arr.dtype.kind == "b":
+            arr = arr.astype(np.uint8) * 255
+        elif arr.dtype.kind == "f":
+            f = np.nan_to_num(arr.astype(np.float32), nan=0.0, posinf=255.0, neginf=0.0)
+            if f.size and float(f.max()) <= 1.0 and float(f.min()) >= 0.0:
+                f = f * 255.0
+            arr = np.clip(f + 0.5, 0, 255).astype(np.uint8)
+        elif arr.dtype == np.uint16:
+            # 16-bit: full range, or 12-bit data (maximum below 4096) scaled from 0…4095
+            full = 4095.0 if int(arr.max()) < 4096 else 65535.0
+            arr = (arr.astype(np.float32) * (255.0 / full) + 0.5).astype(np.uint8)
+        else:
+            top = int(arr.max())
+            lo = min(int(arr.min()), 0)
+            if top > 255 or lo < 0:
+                scale = 255.0 / max(top - lo, 1)
+                arr = ((arr.astype(np.float32) - lo) * scale + 0.5).astype(np.uint8)
+            else:
+                arr = arr.astype(np.uint8)
+    if arr.ndim == 3:
+        code = cv2.COLOR_BGR2GRAY if arr.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
+        arr = cv2.cvtColor(np.ascontiguousarray(arr), code)
+    return np.ascontiguousarray(arr)
+
+
+@dataclass(frozen=True)
+class OtsuSplit:
+    """Otsu's threshold ``level`` of a histogram and the means of the classes below/at and above."""
+
+    level: int
+    dark: float
+    bright: float
+
+    @property
+    def contrast(self) -> float:
+        """Grey levels between the two class means."""
+        return self.bright - self.dark
+
+
+_LEVELS = np.arange(256, dtype=np.float64)
+
+
+def otsu(hist: NDArray[Any]) -> OtsuSplit | None:
+    """Otsu threshold of a 256-bin histogram and the means of its two classes.
+
+    Parameters
+    ----------
+    hist : numpy.ndarray
+        ``(256,)`` pixel counts per grey level.
+
+    Returns
+    -------
+    OtsuSplit or None
+        None when the histogram holds fewer than 16 pixels or one class is empty.
+    """
+    w0 = np.cumsum(hist, dtype=np.float64)
+    total = float(w0[-1])
+    if total < 16:
+        return None
+    s0 = np.cumsum(hist * _LEVELS)
+    s_all = float(s0[-1])
+    # between-class variance w0·w1·(m0 − m1)² = (total·s0 − s_all·w0)² / (w0·w1)
+    num = total * s0 - s_all * w0
+    den = w0 * (total - w0)
+    between = np.divide(num * num, den, out=np.full(256, -1.0), where=den > 0)
+    t = int(np.argmax(between))
+    w0t = float(w0[t])
+    if w0t <= 0 or total - w0t <= 0:
+        return None
+    s0t = float(s0[t])
+    return OtsuSplit(t, s0t / w0t, (s_all - s0t) / (total - w0t))

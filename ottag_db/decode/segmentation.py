@@ -1,0 +1,249 @@
+"""Segmentation stage: a candidate's data area → bright-triangle mask → triangle decompositions."""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.decode.image import otsu
+from ottag_db.decode.splitting import STRICT_BUDGET, FitBudget, component_decompositions
+from ottag_db.decode.triangles import triangle_fit
+from ottag_db.decode.types import DataArea, Decomposition, DetectorParams, Quad, Rejection
+
+__all__ = [
+    "MAX_DECOMPOSITIONS",
+    "NO_DECOMPOSITION",
+    "bridge",
+    "decompose",
+    "segment",
+    "then_alternatives",
+    "triangles_by_opening",
+]
+
+_F64 = NDArray[np.float64]
+
+#: At most this many alternative decompositions of one data area are read.
+MAX_DECOMPOSITIONS = 10
+#: Detail of the rejection when no decomposition was found at all.
+NO_DECOMPOSITION = "a component is not a union of triangles"
+
+
+def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> DataArea | Rejection:
+    """Cut out the data area of ``quad`` and separate its triangles (local Otsu threshold).
+
+    The interior mask is the quad without a band along its border (the blur of the quiet
+    zone's edge); the triangles are the pixels brighter than the level halfway between the
+    two Otsu classes of the interior (for an inverted tag the ROI is inverted first).
+
+    Parameters
+    ----------
+    gray : numpy.ndarray
+        ``(H, W)`` uint8 frame.
+    quad : Quad
+        The candidate (image pixels).
+    params : DetectorParams
+        Uses ``min_contrast``.
+
+    Returns
+    -------
+    DataArea or Rejection
+        ``"low_contrast"`` without two grey levels ``min_contrast`` apart, ``"no_triangles"``
+        when the bright part is below 1 % or above 75 % of the interior.
+    """
+    h, w = gray.shape
+    q = quad.corners
+    x0 = max(math.floor(q[:, 0].min()) - 4, 0)
+    y0 = max(math.floor(q[:, 1].min()) - 4, 0)
+    x1 = min(math.ceil(q[:, 0].max()) + 5, w)
+    y1 = min(math.ceil(q[:, 1].max()) + 5, h)
+    roi = gray[y0:y1, x0:x1]
+    if quad.polarity == "inverted":
+        roi = 255 - roi
+    origin = np.array([x0, y0], dtype=np.float64)
+    ql = q - origin
+    side = math.sqrt(quad.area)
+    band = max(2, round(0.02 * side))
+    mask: NDArray[Any] = np.zeros((roi.shape[0], roi.shape[1]), dtype=np.uint8)
+    qi: NDArray[Any] = np.round(ql * 16).astype(np.int32).reshape(4, 1, 2)
+    cv2.fillPoly(mask, [qi], 255, cv2.LINE_8, 4)
+    cv2.polylines(mask, [qi], True, 0, 2 * band + 1, cv2.LINE_8, 4)
+    hist = cv2.calcHist([roi], [0], mask, [256], [0, 256]).ravel()
+    split = otsu(hist)
+    if split is None or split.contrast < params.min_contrast:
+        return Rejection("low_contrast", "" if split is None else f"{split.contrast:.0f} grey levels")
+    level = 0.5 * (split.dark + split.bright)
+    fg: NDArray[Any] = cv2.bitwise_and(cv2.threshold(roi, level, 255, cv2.THRESH_BINARY)[1], mask)
+    frac = cv2.countNonZero(fg) / max(cv2.countNonZero(mask), 1)
+    if frac < 0.01 or frac > 0.75:
+        return Rejection("no_triangles", f"bright fraction {frac:.2f}")
+    return DataArea(roi, origin, ql, side, level, fg)
+
+
+def decompose(
+    fg: NDArray[np.uint8], side: float, params: DetectorParams, alternatives: bool = True
+) -> list[Decomposition] | Rejection:
+    """Split the bright components of a data area into triangles (contour side chains).
+
+    Parameters
+    ----------
+    fg : numpy.ndarray
+        uint8 mask of the bright triangles (ROI pixels).
+    side : float
+        Data-area side (√area, px): bounds the component areas.
+    params : DetectorParams
+        Uses ``min_triangle_area_px``.
+    alternatives : bool
+        False: only the first decomposition (cheap; what almost every tag needs). True: each
+        component's first decomposition by the splitter's cuts between concave points, then
+        the 3×3 opening, then slit (notch) cuts; the alternatives of one component at a time
+        are combined with the first ones of the others.
+
+    Returns
+    -------
+    list of Decomposition or Rejection
+        At most :data:`MAX_DECOMPOSITIONS`, most plausible first (one empty decomposition
+        when the mask holds no component); ``"non_triangle"`` when a component is too large,
+        a filled square, or not a union of triangles.
+    """
+    contours, hier = cv2.findContours(fg, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if hier is None:
+        return [Decomposition(())]
+    hh = hier[0]
+    min_area = max(params.min_triangle_area_px, 2e-4 * side * side)
+    max_area = 0.45 * side * side  # no triangle of a tag covers half its data area
+    options: list[list[list[_F64]]] = []
+    budget = FitBudget(2 * STRICT_BUDGET)  # strict triangle fits of all components together
+    for i, c in enumerate(contours):
+        if hh[i][3] >= 0 or len(c) < 8:
+            continue
+        pts = c.reshape(-1, 2)
+        area = abs(float(cv2.contourArea(c)))
+        if area + 0.35 * len(pts) < min_area:
+            continue
+        if area > max_area:
+            return Rejection("non_triangle")
+        if area > 0.1 * side * side:
+            # a filled square (e.g. the data area of a nested, inverted tag) is no triangle
+            poly = cv2.approxPolyDP(c, 0.03 * len(c), True)
+            if len(poly) == 4 and cv2.isContourConvex(poly):
+                return Rejection("non_triangle")
+        # A ring of triangles (each sharing vertices with the next) encloses a hole: bridge
+        # every hole into the outer contour at their closest points (a shared vertex) so
+        # the splitter sees one contour pinched at the shared vertices.
+        child = hh[i][2]
+        while child >= 0:
+            hole = contours[child].reshape(-1, 2)
+            if len(hole) >= 8:
+                pts = bridge(pts, hole)
+            child = hh[child][0]
+        opening = functools.partial(triangles_by_opening, fg, contours, hier, i)
+        alts = component_decompositions(pts, opening, alternatives, budget)
+        if not alts:
+            return Rejection("non_triangle")
+        options.append(alts)
+    if not options:
+        return [Decomposition(())]
+    firsts = [o[0] for o in options]
+    out = [Decomposition(tuple(ch for f in firsts for ch in f))]
+    for ci, alts in enumerate(options):
+        for alt in alts[1:]:
+            if len(out) >= MAX_DECOMPOSITIONS:
+                break
+            combo = [*firsts[:ci], alt, *firsts[ci + 1 :]]
+            out.append(Decomposition(tuple(ch for f in combo for ch in f)))
+    return out
+
+
+def then_alternatives(
+    first: list[Decomposition], more: Callable[[], list[Decomposition] | Rejection]
+) -> Iterator[Decomposition]:
+    """``first``, then the decompositions of ``more()`` not already in ``first`` (computed lazily,
+    only when ``first`` is a single decomposition and all of it was read)."""
+    yield from first
+    if len(first) > 1:
+        return  # ``first`` already holds the alternatives
+    alts = more()
+    if isinstance(alts, Rejection):
+        return
+    keys = {tuple(np.round(np.concatenate(t.chains)[:, 0]).tolist()) for t in first if t.chains}
+    for t in alts:
+        if t.chains and tuple(np.round(np.concatenate(t.chains)[:, 0]).tolist()) in keys:
+            continue
+        yield t
+
+
+def bridge(outer: NDArray[Any], hole: NDArray[Any]) -> NDArray[Any]:
+    """One contour running around ``outer`` and, through their closest points, ``hole``.
+
+    Parameters
+    ----------
+    outer, hole : numpy.ndarray
+        ``(n, 2)`` and ``(m, 2)`` integer contours.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n + m + 2, 2)``: ``outer`` up to the bridge point, all of ``hole``, back to ``outer``.
+    """
+
+    def closest(a: NDArray[Any], b: NDArray[Any]) -> tuple[int, int]:
+        d = ((a[:, None, :].astype(np.int64) - b[None, :, :]) ** 2).sum(axis=2)
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        return int(i), int(j)
+
+    step = max(1, int(math.sqrt(len(outer) * len(hole) / 4096)))
+    i, j = closest(outer[::step], hole[::step])
+    i, j = i * step, j * step
+    lo_i, lo_j = max(i - step, 0), max(j - step, 0)
+    di, dj = closest(outer[lo_i : i + step + 1], hole[lo_j : j + step + 1])
+    i, j = lo_i + di, lo_j + dj
+    return np.concatenate([outer[: i + 1], hole[j:], hole[: j + 1], outer[i:]])
+
+
+def triangles_by_opening(fg: NDArray[Any], contours: Any, hier: NDArray[Any], index: int) -> list[_F64] | None:
+    """Paper's fallback: open one component with a 3×3 kernel and fit its parts.
+
+    Parameters
+    ----------
+    fg : numpy.ndarray
+        The bright mask the contours were traced in.
+    contours, hier : sequence, numpy.ndarray
+        OpenCV contours and hierarchy of ``fg`` (``RETR_CCOMP``).
+    index : int
+        The component's outer contour.
+
+    Returns
+    -------
+    list of numpy.ndarray or None
+        Side chains (three per triangle, ``fg`` pixels), or None when a part is no triangle.
+    """
+    x, y, w, h = cv2.boundingRect(contours[index])
+    x0, y0 = max(x - 2, 0), max(y - 2, 0)
+    x1, y1 = min(x + w + 2, fg.shape[1]), min(y + h + 2, fg.shape[0])
+    comp = np.zeros((y1 - y0, x1 - x0), dtype=np.uint8)
+    cv2.drawContours(comp, contours, index, 255, cv2.FILLED, cv2.LINE_8, hier, 1, (-x0, -y0))
+    comp &= fg[y0:y1, x0:x1]
+    opened = cv2.morphologyEx(comp, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    parts, ph = cv2.findContours(opened, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
+    if ph is None:
+        return None
+    out: list[_F64] = []
+    offset = np.array([x0, y0], dtype=np.float64)
+    for k, c in enumerate(parts):
+        if ph[0][k][3] >= 0:
+            if len(c) >= 8:
+                return None
+            continue
+        if len(c) < 8:
+            continue
+        tri = triangle_fit(c.reshape(-1, 2))
+        if tri is None:
+            return None
+        out.extend(ch + offset for ch in tri)
+    return out or None

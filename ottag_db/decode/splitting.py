@@ -1,0 +1,332 @@
+"""Splitting stage: cut a component that is several triangles joined at vertices into triangles."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.single_set import pair_table
+from ottag_db.decode.triangles import off_triangle, triangle_fit, triangle_fit_parts
+
+__all__ = ["STRICT_BUDGET", "FitBudget", "component_decompositions", "notch_cuts", "reflex_corners", "split_triangles"]
+
+_F64 = NDArray[np.float64]
+_Chains = list[_F64]
+
+#: Strict triangle fits one component may cost (bounds the work on non-tags: text, markers).
+STRICT_BUDGET = 80
+
+
+@dataclass
+class FitBudget:
+    """How many more triangle fits a search may make (a counter owned by one reading)."""
+
+    remaining: int
+
+    def take(self) -> bool:
+        """Spend one fit; False (and nothing spent) when the budget is used up."""
+        if self.remaining <= 0:
+            return False
+        self.remaining -= 1
+        return True
+
+
+def component_decompositions(
+    pts: NDArray[Any],
+    opening: Callable[[], _Chains | None],
+    alternatives: bool = True,
+    budget: FitBudget | None = None,
+) -> list[_Chains]:
+    """Alternative triangle decompositions of one component contour, most plausible first.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` integer contour of the component (holes bridged in).
+    opening : callable
+        The paper's fallback, called at most once: the component's triangles after a 3×3
+        opening, or None.
+    alternatives : bool
+        False: only the splitter's first decomposition (or the opening's, if the splitter
+        finds none). True: also the opening, slit cuts and strict fits.
+    budget : FitBudget or None
+        Strict fits left (None: a fresh :data:`STRICT_BUDGET`).
+
+    Returns
+    -------
+    list of list of numpy.ndarray
+        Each decomposition as its side chains (three per triangle), without duplicates.
+    """
+    out: list[_Chains] = []
+    keys: set[tuple[float, ...]] = set()
+
+    def add(chains: _Chains) -> None:
+        if not alternatives:
+            out.append(chains)  # the first decomposition only: nothing to deduplicate
+            return
+        key = tuple(sorted(round(float(v), 0) for ch in chains for v in (ch[0, 0], ch[0, 1])))
+        if key not in keys:
+            keys.add(key)
+            out.append(chains)
+
+    whole = triangle_fit_parts(pts)
+    first = whole.chains if whole is not None else next(split_triangles(pts, 0, False, fitted=True), None)
+    if first is not None:
+        add(first)
+        if not alternatives or (
+            whole is not None and off_triangle(whole.contour, whole.corners, 1.5) <= max(3, 0.02 * len(whole.contour))
+        ):
+            return out  # one triangle: nothing to reconsider
+    opened = opening()
+    if opened is not None:
+        add(opened)
+    if not alternatives:
+        return out
+    for alt in itertools.islice(split_triangles(pts, 0, True), 8):
+        add(alt)
+        if len(out) >= 4:
+            break
+    # strict fits: a small triangle hanging at a corner of a large one is not absorbed
+    if budget is None:
+        budget = FitBudget(STRICT_BUDGET)
+    for tol_px, notch in itertools.product((1.5, 2.5), (False, True)):
+        for strict in itertools.islice(split_triangles(pts, 0, notch, tol_px, budget), 2):
+            add(strict)
+    return out
+
+
+def split_triangles(
+    pts: NDArray[Any],
+    depth: int,
+    notch: bool,
+    strict: float = 0.0,
+    budget: FitBudget | None = None,
+    fitted: bool = False,
+) -> Iterator[_Chains]:
+    """Triangles of a contour that may be several triangles joined at shared vertices.
+
+    A union of triangles meeting at a vertex has concave corners there (convexity defects) on
+    both sides of the shared vertex (or a defect and the bottom of the notch the blur filled):
+    the contour is cut between two such concave points, shortest cut first (or from a concave
+    point to a contour point within 3 px, a pinch; with ``notch`` also along a slit, see
+    :func:`notch_cuts`), and both halves are fitted again, recursively.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` integer contour.
+    depth : int
+        Recursion depth (the search stops at 4).
+    notch : bool
+        Also try cuts along slits.
+    strict : float
+        Strict fit tolerance (px) of :func:`~ottag_db.decode.triangles.triangle_fit`, 0 = loose;
+        strict searches also cut at every reflex corner of the polygon approximation.
+    budget : FitBudget or None
+        Fits left for the whole search (None: unbounded).
+    fitted : bool
+        The caller already knows that ``pts`` is not one (loosely fitted) triangle.
+
+    Yields
+    ------
+    list of numpy.ndarray
+        The decompositions found (side chains, three per triangle), in the order of the cuts.
+    """
+    if budget is not None and not budget.take():
+        return
+    tri = None if fitted and not strict else triangle_fit(pts, strict)
+    if tri is not None:
+        yield tri
+        return
+    n = len(pts)
+    if depth >= 4 or n < 16:
+        return
+    c = pts.reshape(-1, 1, 2).astype(np.int32)
+    try:
+        hull = np.sort(cv2.convexHull(c, returnPoints=False).ravel()).reshape(-1, 1)
+        defects = cv2.convexityDefects(c, hull.astype(np.int32))
+    except cv2.error:
+        return
+    if defects is None:
+        return
+    dfs = defects.reshape(-1, 4)
+    if strict:
+        # every reflex corner of the polygon approximation (a union of triangles meeting at
+        # vertices has its reflex corners exactly at the shared vertices; a hull gap holding
+        # several of them gives only one convexity defect)
+        extra = reflex_corners(pts)
+        if len(extra):
+            dfs = np.concatenate([dfs, extra[~np.isin(extra[:, 2], dfs[:, 2])]])
+    dfs = dfs[dfs[:, 3] >= 180]  # deeper than 0.7 px
+    if len(dfs) == 0:
+        return
+    flat = pts.reshape(-1, 2).astype(np.float64)
+    min_sep = 8 if strict else max(8, n // 12)  # strict: tiny triangles at a pinch too
+    far_pts = np.unique(dfs[:, 2])
+    # cuts between two concave points (both sides of a shared vertex), shortest first; then
+    # from a concave point to a contour point at most 3 px away (a pinch the hull hides)
+    cuts: list[tuple[float, int, int]] = []
+    cut_max = max(4.0, 0.2 * math.sqrt(abs(float(cv2.contourArea(c)))))
+    if len(far_pts) > 1:
+        pairs = pair_table(len(far_pts))
+        fi, fj = far_pts[pairs.first], far_pts[pairs.second]
+        gap = np.abs(fi - fj)
+        pair_d = flat[fi] - flat[fj]
+        pair_len = np.hypot(pair_d[:, 0], pair_d[:, 1])
+        ok = (np.minimum(gap, n - gap) >= min_sep) & (pair_len <= cut_max)
+        cuts = list(zip(pair_len[ok].tolist(), fi[ok].tolist(), fj[ok].tolist(), strict=True))
+    cuts.sort()
+    cuts = cuts[:5]
+    idx = np.arange(n)
+    for far in dfs[np.argsort(-dfs[:, 3])][: 12 if strict else 3, 2]:
+        i = int(far)
+        arc = np.abs(idx - i)
+        arc = np.minimum(arc, n - arc)
+        dist = np.hypot(flat[:, 0] - flat[i, 0], flat[:, 1] - flat[i, 1])
+        dist[arc < min_sep] = np.inf
+        j = int(np.argmin(dist))
+        if dist[j] <= 3.0:
+            cuts.append((float(dist[j]), i, j))
+    if notch:
+        cuts += notch_cuts(flat, dfs, min_sep)
+    tried: set[tuple[int, int]] = set()
+    for _, i, j in cuts:
+        a, b = sorted((i, j))
+        if (a, b) in tried:
+            continue
+        tried.add((a, b))
+        rights: list[_Chains] | None = None
+        for left in split_triangles(pts[a : b + 1], depth + 1, notch, strict, budget):
+            if rights is None:
+                rest = np.concatenate([pts[b:], pts[: a + 1]])
+                rights = list(itertools.islice(split_triangles(rest, depth + 1, notch, strict, budget), 2))
+            if not rights:
+                break
+            for right in rights:
+                yield left + right
+
+
+def reflex_corners(pts: NDArray[Any]) -> NDArray[np.int64]:
+    """Reflex corners of a contour's polygon approximation (1 px) as convexity-defect rows.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` integer contour.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(r, 4)`` int64 rows ``(start, end, corner, depth × 256)``: start/end the
+        neighbouring polygon corners, depth the corner's distance from their chord (pixels);
+        the first three are contour indices.
+    """
+    n = len(pts)
+    flat = pts.reshape(-1, 2)
+    c = flat.reshape(-1, 1, 2).astype(np.int32)
+    poly = cv2.approxPolyDP(c, 1.0, True).reshape(-1, 2)
+    m = len(poly)
+    if m < 4:
+        return np.zeros((0, 4), dtype=np.int64)
+    # contour index of every polygon corner (approxPolyDP keeps contour order)
+    idx = np.empty(m, dtype=np.int64)
+    k = 0
+    for r in range(m):
+        hits = np.nonzero((flat[k:, 0] == poly[r, 0]) & (flat[k:, 1] == poly[r, 1]))[0]
+        if len(hits) == 0:
+            hits = np.nonzero((flat[:, 0] == poly[r, 0]) & (flat[:, 1] == poly[r, 1]))[0]
+            if len(hits) == 0:
+                return np.zeros((0, 4), dtype=np.int64)
+            k = int(hits[0])
+        else:
+            k += int(hits[0])
+        idx[r] = k
+    pf = poly.astype(np.float64)
+    prv = np.roll(pf, 1, axis=0)
+    nxt = np.roll(pf, -1, axis=0)
+    cross = (pf[:, 0] - prv[:, 0]) * (nxt[:, 1] - pf[:, 1]) - (pf[:, 1] - prv[:, 1]) * (nxt[:, 0] - pf[:, 0])
+    orient = np.sign(float(cv2.contourArea(c, oriented=True)))
+    # OpenCV's oriented area is positive for a clockwise contour on screen (y down), whose
+    # convex corners then turn with a positive cross product
+    reflex = cross * orient < 0
+    chord = nxt - prv
+    depth = np.abs(chord[:, 0] * (pf[:, 1] - prv[:, 1]) - chord[:, 1] * (pf[:, 0] - prv[:, 0]))
+    depth /= np.maximum(np.hypot(chord[:, 0], chord[:, 1]), 1e-9)
+    rows: NDArray[np.int64] = np.stack([np.roll(idx, 1), np.roll(idx, -1), idx, (depth * 256).astype(np.int64)], axis=1)
+    out: NDArray[np.int64] = rows[reflex & (idx < n)]
+    return out
+
+
+def notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[tuple[float, int, int]]:
+    """Cuts that continue a slit from its bottom (a concave point) to where it leaves the shape.
+
+    Two triangles that share a vertex at a narrow angle leave a slit between them that the
+    blur closes near the vertex: the union's contour has one concave point (the slit bottom)
+    and the shared vertex is a convex corner on the far side. The cut runs from the concave
+    point straight on, along the slit (from the middle of the notch's mouth through its
+    bottom, or along the bisector of its walls), to where the ray leaves the component, and
+    ends at the contour point there that lies farthest along the ray (the shared tip).
+
+    Parameters
+    ----------
+    flat : numpy.ndarray
+        ``(n, 2)`` float64 contour.
+    dfs : numpy.ndarray
+        Convexity-defect rows ``(start, end, corner, depth × 256)`` (the 4 deepest are used).
+    min_sep : int
+        Smallest arc (contour points) between the two ends of a cut.
+
+    Returns
+    -------
+    list of tuple
+        ``(rank, i, j)``: a sort key (after every ordinary cut) and the contour indices.
+    """
+    n = len(flat)
+    lo = flat.min(axis=0) - 1
+    size = (flat.max(axis=0) - lo + 2).astype(np.int64)
+    mask = np.zeros((int(size[1]), int(size[0])), dtype=np.uint8)
+    cv2.fillPoly(mask, [np.round(flat - lo).astype(np.int32).reshape(-1, 1, 2)], 1)
+    reach = float(np.hypot(*size))
+    steps = np.arange(1.0, reach, 0.5)
+    out: list[tuple[float, int, int]] = []
+    idx = np.arange(n)
+    walls = max(3, min(10, n // 24))
+    for s_, e_, far, _depth in dfs[np.argsort(-dfs[:, 3])][:4]:
+        i = int(far)
+        p = flat[i]
+        u1 = flat[(i - walls) % n] - p
+        u2 = flat[(i + walls) % n] - p
+        bis = -(u1 / max(float(np.hypot(*u1)), 1e-9) + u2 / max(float(np.hypot(*u2)), 1e-9))
+        mouth = p - 0.5 * (flat[int(s_)] + flat[int(e_)])
+        arc = np.abs(idx - i)
+        arc = np.minimum(arc, n - arc)
+        for d in (mouth, bis):
+            ln = float(np.hypot(*d))
+            if ln < 1e-6:
+                continue
+            d = d / ln
+            ray = p + steps[:, None] * d
+            rc = np.round(ray - lo).astype(np.int64)
+            ok = (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < size[0]) & (rc[:, 1] < size[1])
+            inside = np.zeros(len(steps), dtype=bool)
+            inside[ok] = mask[rc[ok, 1], rc[ok, 0]] > 0
+            outside = np.nonzero(~inside)[0]
+            last = (int(outside[0]) if len(outside) else len(steps)) - 1
+            if last < 2:
+                continue
+            exit_pt = ray[last]
+            dist = np.linalg.norm(flat - exit_pt, axis=1)
+            near = (dist <= max(3.0, 0.08 * steps[last])) & (arc >= min_sep)
+            if not near.any():
+                continue
+            along = np.where(near, (flat - p) @ d, -np.inf)
+            j = int(np.argmax(along))
+            out.append((100.0 + float(steps[last]), i, j))
+    return out

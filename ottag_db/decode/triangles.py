@@ -1,0 +1,245 @@
+"""Triangle stage: fit one triangle to a contour, and check fitted triangles against a tag's rules."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.decode.types import Rejection
+
+__all__ = ["TriangleFit", "bad_triangles", "off_triangle", "triangle_fit", "triangle_fit_parts"]
+
+_F64 = NDArray[np.float64]
+_NEXT3 = np.array([1, 2, 0])
+_NEXT4 = np.array([1, 2, 3, 0])
+
+
+@dataclass(frozen=True)
+class TriangleFit:
+    """A contour fitted as one triangle: ``chains`` the three side chains (contour points
+    without the corner ends; a short side is its chord), ``corners`` ``(3, 2)`` and the whole
+    ``contour`` ``(n, 2)`` as float64 (pixels)."""
+
+    chains: list[_F64]
+    corners: _F64
+    contour: _F64
+
+
+def triangle_fit(pts: NDArray[Any], strict: float = 0.0) -> list[_F64] | None:
+    """Side chains of a closed contour that is one triangle, or None.
+
+    Corners: the two farthest contour points and the point farthest from their line (paper
+    Sec. 4.1.2), then grown to the largest-area triangle of hull points. At most 5 % of the
+    contour (without the 10 % next to each corner) may lie farther than ``1 px + 1.5 %`` of
+    the side from the line fitted to the side's middle, and the contour area must match the
+    triangle's.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` integer contour points (pixels, OpenCV contour order).
+    strict : float
+        When positive, also reject a contour with more than ``max(3, 2 %)`` of its points
+        farther than ``strict`` px from every side (see :func:`off_triangle`): a small
+        triangle hanging at a corner, hidden by the corner trims.
+
+    Returns
+    -------
+    list of numpy.ndarray or None
+        The three side chains (float64 ``(m, 2)``), side j from corner j to corner j+1.
+    """
+    fit = triangle_fit_parts(pts)
+    if fit is None:
+        return None
+    if strict and off_triangle(fit.contour, fit.corners, strict) > max(3, 0.02 * len(fit.contour)):
+        return None  # a small triangle hanging at a corner (hidden by the corner trims below)
+    return fit.chains
+
+
+def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
+    """:func:`triangle_fit` without the strict test, with the corners and the contour.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` integer contour points.
+
+    Returns
+    -------
+    TriangleFit or None
+        None when the contour is not one triangle.
+    """
+    n = len(pts)
+    if n < 8:
+        return None
+    flat_i = np.ascontiguousarray(pts.reshape(-1, 2), dtype=np.int32)
+    c = flat_i.reshape(-1, 1, 2)
+    hull = cv2.convexHull(c, returnPoints=False).ravel()
+    if len(hull) < 3:
+        return None
+    flat = flat_i.astype(np.float64)
+    hp = flat[hull]
+    dd = ((hp[:, None, :] - hp[None, :, :]) ** 2).sum(axis=2)
+    ia, ib = divmod(int(np.argmax(dd)), len(hp))
+    hpl: list[list[float]] = hp.tolist()
+    hrange = range(len(hpl))
+
+    def far_from(p0: list[float], p1: list[float]) -> list[float]:
+        """Twice the area of the triangle of each hull point with ``p0`` and ``p1``."""
+        ex, ey = p1[0] - p0[0], p1[1] - p0[1]
+        return [abs(ex * (y - p0[1]) - ey * (x - p0[0])) for x, y in hpl]
+
+    vals = far_from(hpl[ia], hpl[ib])
+    ic = max(hrange, key=vals.__getitem__)  # the first largest, as np.argmax
+    sel = [int(ia), int(ib), ic]
+    # grow to the largest-area hull triangle (a blunt short side can fool the farthest pair)
+    for _ in range(3):
+        changed = False
+        for r in range(3):
+            vals = far_from(hpl[sel[(r + 1) % 3]], hpl[sel[(r + 2) % 3]])
+            best = max(hrange, key=vals.__getitem__)
+            if best != sel[r] and vals[best] > vals[sel[r]] + 1e-9:
+                sel[r] = best
+                changed = True
+        if not changed:
+            break
+    idx = sorted({int(hull[s]) for s in sel})
+    if len(idx) < 3:
+        return None
+    tri = flat[idx]
+    (t0x, t0y), (t1x, t1y), (t2x, t2y) = tri.tolist()
+    t_area = 0.5 * abs((t1x - t0x) * (t2y - t0y) - (t1y - t0y) * (t2x - t0x))
+    c_area = abs(float(cv2.contourArea(c)))
+    perim = float(cv2.arcLength(c, True))
+    if t_area <= 0 or abs(c_area - t_area) > 0.2 * t_area + 0.25 * perim:
+        return None
+    chains: list[_F64] = []
+    far = 0
+    i0, i1, i2 = idx
+    for seg in (flat[i0 : i1 + 1], flat[i1 : i2 + 1], np.concatenate([flat[i2:], flat[: i0 + 1]])):
+        m = len(seg)
+        (sx, sy), (qx, qy) = seg[0].tolist(), seg[-1].tolist()
+        ln = math.hypot(qx - sx, qy - sy)
+        if ln < 1:
+            return None
+        if m < 6:
+            # a short side (the base of a needle): the chord; the grey-level fit refines it
+            chains.append(seg[[0, -1]])
+            continue
+        trim = max(1, int(0.15 * m))
+        core = seg[trim : m - trim]
+        # distance of the chain (without its ends) to the line fitted to its core
+        t10 = max(1, int(0.1 * m))
+        # PCA line of the core from raw moments (pixel coordinates: no loss of precision)
+        (sx_, sy_), ((gxx, gxy), (_, gyy)) = core.sum(axis=0).tolist(), (core.T @ core).tolist()
+        cx, cy = sx_ / len(core), sy_ / len(core)
+        theta = 0.5 * math.atan2(2 * (gxy - sx_ * cy), (gxx - sx_ * cx) - (gyy - sy_ * cy))
+        nx, ny = -math.sin(theta), math.cos(theta)
+        dist = np.abs(seg[t10 : m - t10] @ np.array((nx, ny)) - (nx * cx + ny * cy))
+        far += int(np.count_nonzero(dist > 1.0 + 0.015 * ln))
+        chains.append(core)
+    if far > max(2, 0.05 * n):
+        return None
+    return TriangleFit(chains, tri, flat)
+
+
+def off_triangle(pts: _F64, tri: _F64, tol_px: float) -> int:
+    """How many points lie farther than ``max(tol_px, 0.6 %`` of the longest side) from every
+    side segment of the triangle ``tri``.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` contour points (pixels).
+    tri : numpy.ndarray
+        ``(3, 2)`` triangle corners.
+    tol_px : float
+        Distance floor (pixels).
+
+    Returns
+    -------
+    int
+        The number of points off the triangle's outline.
+    """
+    a = tri
+    d = tri[_NEXT3] - a
+    ln2 = np.maximum((d * d).sum(axis=1), 1e-12)
+    rel = pts[:, None, :] - a[None, :, :]  # (n, 3, 2)
+    u = np.clip((rel * d[None]).sum(axis=2) / ln2[None], 0.0, 1.0)
+    off = rel - u[..., None] * d[None]
+    dist2 = (off * off).sum(axis=2).min(axis=1)
+    tol = max(tol_px, 0.006 * math.sqrt(float(ln2.max())))
+    return int((dist2 > tol * tol).sum())
+
+
+def _same_triangle_mask(s: int) -> NDArray[np.bool_]:
+    t = np.arange(s) // 3
+    out: NDArray[np.bool_] = t[:, None] == t[None, :]
+    out.flags.writeable = False
+    return out
+
+
+#: ``(s, s)`` masks of side pairs of one triangle (sides 3t, 3t+1, 3t+2), for up to 16 triangles.
+_SAME_TRIANGLE: tuple[NDArray[np.bool_], ...] = tuple(_same_triangle_mask(s) for s in range(49))
+
+
+def bad_triangles(verts: _F64, quad: _F64, side: float) -> Rejection | None:
+    """Why fitted triangles cannot be a tag's, or None if they can.
+
+    The vertices must be finite and inside the data area, and no two triangles may share
+    part of a side: tag triangles meet only at shared vertices, while a cut through one
+    triangle (a wrong split) leaves two triangles on both sides of one line segment.
+
+    Parameters
+    ----------
+    verts : numpy.ndarray
+        ``(T, 3, 2)`` triangle vertices (pixels).
+    quad : numpy.ndarray
+        ``(4, 2)`` data-area corners in the same coordinates (convex, either orientation).
+    side : float
+        Data-area side (√area, pixels): scales the tolerances.
+
+    Returns
+    -------
+    Rejection or None
+        A ``"non_triangle"`` rejection naming the fault.
+    """
+    if not np.isfinite(verts).all():
+        return Rejection("non_triangle", "degenerate triangle")
+    v = verts.reshape(-1, 2)
+    # inside the data area: on the inner side of every quad side (convex, either orientation)
+    a = quad
+    d = quad[_NEXT4] - a
+    cross = d[None, :, 0] * (v[:, None, 1] - a[None, :, 1]) - d[None, :, 1] * (v[:, None, 0] - a[None, :, 0])
+    cross /= np.hypot(d[:, 0], d[:, 1])[None, :]
+    slack = 1.0 + 0.01 * side
+    if not ((cross >= -slack).all(axis=1).all() or (cross <= slack).all(axis=1).all()):
+        return Rejection("non_triangle", "triangle vertex outside the data area")
+    t = len(verts)
+    if t < 2:
+        return None
+    near = max(0.8, 0.008 * side)
+    sa = verts.reshape(-1, 2)  # side j of triangle i runs from vertex j to j + 1
+    sb = verts[:, _NEXT3].reshape(-1, 2)
+    sd = sb - sa
+    ln = np.maximum(np.hypot(sd[:, 0], sd[:, 1]), 1e-9)
+    unit = sd / ln[:, None]
+    nrm = np.stack([-unit[:, 1], unit[:, 0]], axis=1)
+    # side j against side i: both ends of j within ``near`` of side i's line, and their
+    # projections overlapping side i over a third of the shorter side
+    off_a = np.abs(((sa[None, :, :] - sa[:, None, :]) * nrm[:, None, :]).sum(axis=2))
+    off_b = np.abs(((sb[None, :, :] - sa[:, None, :]) * nrm[:, None, :]).sum(axis=2))
+    pa = ((sa[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
+    pb = ((sb[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
+    overlap = np.minimum(np.maximum(pa, pb), ln[:, None]) - np.maximum(np.minimum(pa, pb), 0.0)
+    s = len(sa)
+    own = _SAME_TRIANGLE[s] if s < len(_SAME_TRIANGLE) else _same_triangle_mask(s)
+    shared = (off_a < near) & (off_b < near) & (overlap > np.minimum(ln[:, None], ln[None, :]) / 3) & ~own
+    if shared.any():
+        return Rejection("non_triangle", "two triangles share part of a side")
+    return None

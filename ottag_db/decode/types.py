@@ -1,0 +1,311 @@
+"""The decoder's data: results (:class:`Detection`, :class:`Rejected`), settings and stage values.
+
+Data flow of one frame (each arrow a stage module of :mod:`ottag_db.decode`)::
+
+    image ─image→ grey ─candidates→ Quad ─segmentation→ DataArea ─segmentation→ Decomposition
+      ─refine→ TriangleLines ─cluster→ PointHypothesis ─identify/verify→ Detection | Rejection
+
+A stage that cannot go on returns a :class:`Rejection` (a :data:`RejectReason` with a detail);
+the detector turns it into a :class:`Rejected` with the candidate's quad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Literal, get_args
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.types import POLARITIES, Polarity
+from ottag_db.errors import UsageError
+
+__all__ = [
+    "REJECTION_REASONS",
+    "STAGES",
+    "DataArea",
+    "Decomposition",
+    "Detection",
+    "DetectionReport",
+    "DetectorParams",
+    "PointHypothesis",
+    "Quad",
+    "RejectReason",
+    "Rejected",
+    "Rejection",
+    "StageName",
+    "TriangleLines",
+]
+
+_F64 = NDArray[np.float64]
+
+#: Why a candidate data area did not become a detection (``Rejected.reason``; the values
+#: appear in ``decode --json``).
+RejectReason = Literal[
+    "low_contrast",
+    "no_triangles",
+    "touches_border",
+    "non_triangle",
+    "point_count",
+    "general_position",
+    "low_margin",
+    "unknown_id",
+    "verification",
+    "quad_inconsistent",
+    "polarity_not_in_dictionary",
+]
+
+#: Each :data:`RejectReason` with its meaning.
+REJECTION_REASONS: dict[RejectReason, str] = {
+    "low_contrast": "the data area holds no two clearly separated grey levels",
+    "no_triangles": "no triangle was found inside the data area",
+    "touches_border": "a component inside the data area touches its border",
+    "non_triangle": "a component inside the data area is not a union of triangles",
+    "point_count": "the number of points is outside 3…8 or not held by the lookup",
+    "general_position": "three detected points are (numerically) collinear",
+    "low_margin": "the smallest point-to-line distance is below min_margin_px",
+    "unknown_id": "the order type is not in the lookup",
+    "verification": "no stored realization maps onto the points within the reprojection bound",
+    "quad_inconsistent": "the data-area corners do not map to a parallelogram of the tag plane",
+    "polarity_not_in_dictionary": "the order type is a dictionary member, but not in the detected polarity",
+}
+
+#: The stages timed by :meth:`ottag_db.decode.Detector.detect_with_report`, in pipeline order.
+StageName = Literal[
+    "image", "candidates", "segmentation", "triangles", "refine", "cluster", "identify", "verify", "upsample"
+]
+STAGES: tuple[StageName, ...] = get_args(StageName)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One decoded Order Type Tag in an image.
+
+    Image coordinates are pixels, x = column, y = row, origin at the *centre* of the top-left
+    pixel (OpenCV's convention), sub-pixel floats.
+
+    - ``lambda_text``: canonical ID ``k:digits``; ``k`` the number of points;
+    - ``order_type_id`` / ``tag``: from the lookup entry (None for unknown order types,
+      reported only with ``allow_unknown=True``); when the entry's ``extra["tags"]`` maps
+      polarity → number (a dictionary lookup), ``tag`` is the number of the detected polarity;
+    - ``polarity``: ``"normal"`` (white triangles on a black data area) or ``"inverted"``;
+    - ``points``: ``(k, 2)`` detected points, row ``l`` = the point with canonical label ``l``;
+    - ``model_points``: ``(k, 2)`` the matched stored realization in canonical order (file/grid
+      coordinates), only when the order type has a unique minimal ordering, else None;
+    - ``corners``: ``(4, 2)`` sub-pixel data-area corners in the order tag top-left, top-right,
+      bottom-right, bottom-left (tag plane, x right, y down), found by mapping the corners
+      back through ``homography``; without a homography they are in image clockwise order
+      starting at the corner nearest the image origin;
+    - ``homography``: ``(3, 3)`` map from the realization's file coordinates (tag plane) to
+      the image, normalised so ``H[2, 2] = 1``; None when no realization was available;
+    - ``reprojection_error_px``: largest distance between a detected point and its
+      realization point mapped by ``homography`` (None without a homography);
+    - ``margin_px``: smallest distance from a detected point to a line through two others.
+    """
+
+    lambda_text: str
+    k: int
+    order_type_id: int | None
+    tag: int | None
+    polarity: Polarity
+    points: _F64
+    model_points: _F64 | None
+    corners: _F64
+    homography: _F64 | None
+    reprojection_error_px: float | None
+    margin_px: float
+
+    @property
+    def center(self) -> tuple[float, float]:
+        """Centre of the data area (mean of the corners), image pixels."""
+        c = self.corners.mean(axis=0)
+        return float(c[0]), float(c[1])
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A candidate data area that did not become a detection.
+
+    ``reason`` is a :data:`RejectReason` (a key of :data:`REJECTION_REASONS`); ``corners`` the
+    ``(4, 2)`` candidate quad (image pixels, clockwise on screen); ``lambda_text`` the ID read
+    before the rejection, if any; ``detail`` a short human-readable explanation with the
+    measured value.
+    """
+
+    reason: RejectReason
+    polarity: Polarity
+    corners: _F64
+    lambda_text: str | None = None
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class DetectionReport:
+    """Everything one :meth:`~ottag_db.decode.Detector.detect_with_report` call found.
+
+    ``timings`` holds ``(stage, seconds)`` for every stage of :data:`STAGES`, in that order
+    (wall time spent in the stage over all candidates of the frame).
+    """
+
+    detections: list[Detection]
+    rejected: list[Rejected]
+    timings: tuple[tuple[StageName, float], ...]
+
+
+@dataclass(frozen=True)
+class DetectorParams:
+    """Decoder settings (lengths in image pixels unless noted).
+
+    Candidate search:
+
+    - ``use_adaptive`` / ``use_otsu``: binarizations searched for data areas: local mean
+      thresholding (window ``adaptive_block`` px, odd, 0 = automatic: about 1/16 of the
+      shorter image side, at least 15; offset ``adaptive_c`` grey levels), then global Otsu
+      for quads the first pass did not give; the Otsu pass runs only when the adaptive pass
+      decoded nothing, unless ``otsu_always`` (costs one more contour pass per frame);
+    - ``polarities``: which tag polarities to look for (a tuple; one name is accepted too);
+    - ``min_quad_area_px``: smallest data-area area (px²); ``min_quad_side_px``: shortest side;
+    - ``max_candidates``: at most this many candidate quads (largest first) are read per frame.
+
+    Reading:
+
+    - ``min_contrast``: grey levels between the dark and bright class inside the data area;
+    - ``min_triangle_area_px``: smaller components inside a data area are ignored as noise;
+    - ``merge_radius_px`` / ``merge_radius_rel``: vertex estimates of different triangles are
+      one (shared) point when the least-squares intersection of all their side lines lies
+      within ``max(merge_radius_px, merge_radius_rel * sqrt(area))`` of each of these lines;
+    - ``min_margin_px``: a reading whose smallest point-to-line distance is below this is
+      rejected (default 1.0 px: the vertices are fitted to ~0.1–0.3 px, so an orientation
+      cannot flip on a margin this large);
+    - ``verify``: check the reading against the stored realizations (see
+      :class:`~ottag_db.decode.Detector`);
+    - ``max_reproj_px`` / ``max_reproj_rel``: reprojection bound
+      ``max(max_reproj_px, max_reproj_rel * sqrt(data-area area))`` on the largest distance
+      from a mapped realization point to a side line through its detected point (the
+      homography is fitted to these point–line incidences, so a sharp tip, well measured
+      across its sides but not along its axis, is judged across its sides);
+    - ``check_quad`` / ``max_quad_error``: the data-area corners mapped back to the tag plane
+      must form a parallelogram: ``|g0 − g1 + g2 − g3|`` at most ``max_quad_error`` times the
+      mean side (the tag is placed by an affine map, so the square becomes a parallelogram);
+    - ``allow_unknown``: also report order types missing from the lookup (IDs without
+      ``order_type_id``; with ``verify`` they cannot be verified and are reported unverified).
+
+    Raises :class:`~ottag_db.errors.UsageError` for invalid settings.
+    """
+
+    use_otsu: bool = True
+    use_adaptive: bool = True
+    otsu_always: bool = False
+    adaptive_block: int = 0
+    adaptive_c: float = 7.0
+    polarities: tuple[Polarity, ...] = POLARITIES
+    min_quad_area_px: float = 400.0
+    min_quad_side_px: float = 12.0
+    max_candidates: int = 64
+    min_contrast: float = 20.0
+    min_triangle_area_px: float = 6.0
+    merge_radius_px: float = 1.0
+    merge_radius_rel: float = 0.006
+    min_margin_px: float = 1.0
+    verify: bool = True
+    max_reproj_px: float = 1.5
+    max_reproj_rel: float = 0.02
+    check_quad: bool = True
+    max_quad_error: float = 0.25
+    allow_unknown: bool = False
+
+    def __post_init__(self) -> None:
+        pols: Any = self.polarities
+        # one polarity name, or any iterable of names, is kept as a tuple (the field's type)
+        object.__setattr__(self, "polarities", (pols,) if isinstance(pols, str) else tuple(pols))
+        if self.adaptive_block and (self.adaptive_block < 3 or self.adaptive_block % 2 == 0):
+            raise UsageError(f"adaptive_block must be 0 or an odd number >= 3, got {self.adaptive_block}")
+        for p in self.polarities:
+            if p not in POLARITIES:
+                raise UsageError(f"unknown polarity {p!r}: use 'normal' and/or 'inverted'")
+        if not (self.use_otsu or self.use_adaptive):
+            raise UsageError("at least one of use_otsu and use_adaptive must be True")
+        for name in ("min_quad_area_px", "min_quad_side_px", "min_margin_px", "max_reproj_px"):
+            if float(getattr(self, name)) < 0:
+                raise UsageError(f"{name} must not be negative")
+
+
+# ---------------------------------------------------------------------- between the stages
+@dataclass(frozen=True)
+class Quad:
+    """A candidate data area: ``corners`` ``(4, 2)`` clockwise on screen (image pixels,
+    starting nearest the image origin), its ``area`` (px²) and the ``polarity`` it was found in."""
+
+    polarity: Polarity
+    corners: _F64
+    area: float
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """Why a stage stopped reading a candidate (converted to :class:`Rejected` by the detector).
+
+    ``decomposed`` is False when no triangle decomposition of the data area was found at all
+    (the detector then does not retry the candidate upsampled).
+    """
+
+    reason: RejectReason
+    detail: str = ""
+    lambda_text: str | None = None
+    decomposed: bool = True
+
+    def at(self, quad: Quad) -> Rejected:
+        """The public :class:`Rejected` of this rejection for the candidate ``quad``."""
+        return Rejected(self.reason, quad.polarity, quad.corners.copy(), self.lambda_text, self.detail)
+
+
+@dataclass(frozen=True)
+class DataArea:
+    """The segmented data area of one candidate, in ROI coordinates.
+
+    - ``roi``: the grey image around the quad (inverted for inverted tags: triangles bright);
+    - ``origin``: image position ``(x, y)`` of ROI pixel ``(0, 0)``;
+    - ``quad``: ``(4, 2)`` the candidate corners in ROI coordinates; ``side``: √area (px);
+    - ``level``: grey level halfway between the dark and the bright class;
+    - ``fg``: uint8 mask (255 = bright) of the triangles inside the interior of the quad.
+    """
+
+    roi: NDArray[np.uint8]
+    origin: _F64
+    quad: _F64
+    side: float
+    level: float
+    fg: NDArray[np.uint8]
+
+
+@dataclass(frozen=True)
+class Decomposition:
+    """Triangles found in one data area: three contour side chains per triangle, each an
+    ``(m, 2)`` float64 array of ROI pixel positions (side j runs from vertex j to j+1)."""
+
+    chains: tuple[_F64, ...]
+
+    @property
+    def count(self) -> int:
+        """Number of triangles."""
+        return len(self.chains) // 3
+
+
+@dataclass(frozen=True)
+class TriangleLines:
+    """Refined triangle sides: ``normal`` ``(S, 2)`` unit normals and ``offset`` ``(S,)`` with
+    n·x = c (ROI pixels; sides 3t, 3t+1, 3t+2 of triangle t), and ``vertices`` ``(T, 3, 2)``
+    (vertex j = side j−1 ∩ side j)."""
+
+    normal: _F64
+    offset: _F64
+    vertices: _F64
+
+
+@dataclass(frozen=True)
+class PointHypothesis:
+    """One reading of the triangle vertices as points: ``points`` ``(k, 2)`` and, for each
+    point, the indices ``line_ids[i]`` of the triangle side lines through it."""
+
+    points: _F64
+    line_ids: tuple[NDArray[np.int64], ...]

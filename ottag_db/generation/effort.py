@@ -1,0 +1,65 @@
+"""How hard the realization searches per set (see :mod:`ottag_db.generation.realize`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["RealizeEffort", "default_effort"]
+
+
+@dataclass(frozen=True)
+class RealizeEffort:
+    """How hard to search for one set.
+
+    - ``starts``: continuous optimizations from the seed and random projective images;
+    - ``hops``: further optimizations from random perturbations of the best so far
+      (standard deviations cycling through ``hop_sigmas``, grid units);
+    - ``roundings``: rounding variants (sub-pixel shifts and slight shrinks) tried per set;
+    - ``searched_roundings``: best rounding variants refined by the integer local search;
+    - ``maxiter``: SLSQP iteration limit; ``search_iters``: integer-search iteration limit;
+    - ``hard_below``: sets whose best continuous MP (grid units) is below this count as
+      *hard* and get ``hard_starts`` further SLSQP runs from uniformly random points (which
+      land in other basins than the projective images of one realization) and
+      ``exact_variants`` sub-pixel shifts / slight shrinks of the optimum, each rounded in
+      all ``4^k`` ways (floor or ceiling per coordinate), of which the ``exact_keep`` best
+      go to the search;
+    - ``tilt_tol``: of the searched integer sets, those with MP ≥ (1 − ``tilt_tol``) · best
+      (never crossing an MP step, see :mod:`ottag_db.generation.rounding`) compete on
+      :func:`~ottag_db.generation.rounding.tilt_failures`.
+    """
+
+    starts: int = 3
+    hops: int = 1
+    hop_sigmas: tuple[float, ...] = (15.0, 5.0, 30.0, 60.0)
+    roundings: int = 24
+    searched_roundings: int = 3
+    maxiter: int = 200
+    search_iters: int = 200
+    hard_below: float = 0.0
+    hard_starts: int = 0
+    exact_variants: int = 0
+    exact_keep: int = 2
+    tilt_tol: float = 0.03
+
+
+def default_effort(k: int) -> RealizeEffort:
+    """Search effort used for sets of ``k`` points.
+
+    Few sets exist for ``k ≤ 7``, so they get many starts; for ``k = 8`` (3315 sets) the
+    budget is a few SLSQP runs each (multi-starts rarely change the optimum there).
+
+    Parameters
+    ----------
+    k : int
+        Number of points.
+
+    Returns
+    -------
+    RealizeEffort
+        The effort the bundled data were generated with.
+    """
+    if k <= 7:
+        return RealizeEffort(starts=8, hops=16, roundings=64, searched_roundings=6, hard_below=np.inf, exact_variants=4)
+    return RealizeEffort(starts=3, hops=0, hard_below=2.3, exact_variants=4)

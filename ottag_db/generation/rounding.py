@@ -1,0 +1,283 @@
+"""Integer stage of the realization: roundings of a continuous optimum, a batched local
+search on the grid and the tilt-robust choice among the results (grid units throughout)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ottag_db.core.geometry import triple_figures
+from ottag_db.core.types import MP_THRESHOLDS
+from ottag_db.generation.effort import RealizeEffort
+from ottag_db.generation.objective import GRID_MAX, signed_mp_terms, triple_signs
+
+__all__ = ["best_roundings", "exact_roundings", "integer_local_search", "tilt_choice", "tilt_failures"]
+
+#: Single-point moves of the integer search: every (dx, dy) in [−3, 3]² except (0, 0).
+_MOVES = np.array([(dx, dy) for dx in range(-3, 4) for dy in range(-3, 4) if (dx, dy) != (0, 0)], dtype=np.float64)
+#: The integer search compares the smallest few point-to-line distances lexicographically.
+_KEY_SIZE = 3
+#: Two keys are equal when they differ by less than this (grid units).
+_KEY_EPS = 1e-9
+#: MP values (grid units) that the tilt-robust choice never crosses downwards: the
+#: thresholds 0.5, 1.0, …, 9.0 of the summary table, then every integer.
+_MP_STEPS = np.concatenate([np.array(MP_THRESHOLDS), np.arange(10.0, 256.0)])
+#: Camera of the projection experiments (paper's Table 4): focal length and distance (px, a.u.).
+_FOCAL = 1000.0
+_DISTANCE = 1000.0
+
+
+def _keys(terms: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The ``_KEY_SIZE`` smallest terms in increasing order (the search compares these)."""
+    m = min(_KEY_SIZE, terms.shape[-1])
+    part = np.partition(terms, m - 1, axis=-1)[..., :m]
+    out: NDArray[np.float64] = np.sort(part, axis=-1)
+    return out
+
+
+def _lex_greater(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Elementwise lexicographic ``a > b`` over the last axis (with tolerance ``_KEY_EPS``)."""
+    result = np.zeros(a.shape[:-1], dtype=bool)
+    decided = np.zeros(a.shape[:-1], dtype=bool)
+    for col in range(a.shape[-1]):
+        gt = a[..., col] > b[..., col] + _KEY_EPS
+        lt = a[..., col] < b[..., col] - _KEY_EPS
+        result |= gt & ~decided
+        decided |= gt | lt
+    return result
+
+
+def _lex_argmax(keys: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Index of the lexicographically largest key along axis 1 of ``(B, M, m)`` (first on ties)."""
+    mask = np.ones(keys.shape[:2], dtype=bool)
+    for col in range(keys.shape[2]):
+        vals = np.where(mask, keys[..., col], -np.inf)
+        mask &= vals >= vals.max(axis=1, keepdims=True) - _KEY_EPS
+    out: NDArray[np.intp] = np.argmax(mask, axis=1)
+    return out
+
+
+def integer_local_search(
+    points: ArrayLike, signs: ArrayLike, max_iters: int = 200
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Hill-climb integer sets ``(B, k, 2)`` in [0, 255]²: move one point by up to ±3 in x and y.
+
+    Each round evaluates every single-point move of every set at once and applies the best
+    one if it raises the smallest terms (half point-to-line distances) lexicographically;
+    moves changing an orientation (``signs`` ``(B, T)``) are never taken, so the order
+    type is kept.
+
+    Parameters
+    ----------
+    points : array_like, shape (B, k, 2)
+        Integer-valued sets in [0, GRID_MAX]² (grid units).
+    signs : array_like, shape (B, C(k, 3))
+        Orientation sign of every triple to keep (see
+        :func:`~ottag_db.generation.objective.triple_signs`).
+    max_iters : int, optional
+        Largest number of rounds.
+
+    Returns
+    -------
+    points : ndarray of int64, shape (B, k, 2)
+        The improved sets (grid units).
+    mp : ndarray of float64, shape (B,)
+        Their signed MP (grid units; ≤ 0 for an input that already broke ``signs``).
+    """
+    pts = np.asarray(points, dtype=np.float64).copy()
+    sg = np.asarray(signs, dtype=np.float64)
+    b, k, _ = pts.shape
+    n_moves = _MOVES.shape[0]
+    keys = _keys(signed_mp_terms(pts, sg))
+    active = np.ones(b, dtype=bool)
+    for _ in range(max_iters):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        cand = np.repeat(pts[idx][:, None, None], k * n_moves, axis=1).reshape(idx.size, k, n_moves, k, 2)
+        for q in range(k):
+            cand[:, q, :, q, :] += _MOVES
+        cand = np.clip(cand.reshape(idx.size, k * n_moves, k, 2), 0.0, float(GRID_MAX))
+        cand_keys = _keys(signed_mp_terms(cand, sg[idx][:, None, :]))
+        rows = np.arange(idx.size)
+        best = _lex_argmax(cand_keys)
+        best_keys = cand_keys[rows, best]
+        improved = _lex_greater(best_keys, keys[idx])
+        pts[idx[improved]] = cand[rows[improved], best[improved]]
+        keys[idx[improved]] = best_keys[improved]
+        active[idx[~improved]] = False
+    return pts.astype(np.int64), keys[:, 0]
+
+
+def _rounding_variants(points: NDArray[np.float64], count: int, rng: np.random.Generator) -> NDArray[np.float64]:
+    """``count`` integer candidates near ``points``: plain rounding, then random sub-pixel
+    shifts combined with shrinks by up to 2 % about the box centre."""
+    out = np.empty((count, *points.shape))
+    centre = GRID_MAX / 2.0
+    for v in range(count):
+        if v == 0:
+            moved = points
+        else:
+            shrink = 1.0 - rng.uniform(0.0, 0.02)
+            moved = centre + shrink * (points - centre) + rng.uniform(-0.5, 0.5, 2)
+        out[v] = np.clip(np.rint(moved), 0, GRID_MAX)
+    return out
+
+
+def best_roundings(
+    cont: NDArray[np.float64], signs: NDArray[np.float64], effort: RealizeEffort, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """The best rounding variants of one continuous solution.
+
+    Variants are plain rounding, then random sub-pixel shifts combined with shrinks by up
+    to 2 % about the box centre; they are ranked by their smallest signed terms.
+
+    Parameters
+    ----------
+    cont : ndarray of float64, shape (k, 2)
+        Continuous optimum in [0, GRID_MAX]² (grid units).
+    signs : ndarray of float64, shape (C(k, 3),)
+        Orientation signs to keep.
+    effort : RealizeEffort
+        ``roundings`` variants are tried, the ``searched_roundings`` best returned.
+    rng : numpy.random.Generator
+        Source of the shifts and shrinks.
+
+    Returns
+    -------
+    ndarray of float64, shape (searched_roundings, k, 2)
+        Integer-valued candidates (grid units), best first.
+    """
+    variants = _rounding_variants(cont, effort.roundings, rng)
+    keys = _keys(signed_mp_terms(variants, np.broadcast_to(signs, (variants.shape[0], signs.size))))
+    order = np.lexsort(tuple(-keys[:, c] for c in range(keys.shape[1] - 1, -1, -1)))
+    out: NDArray[np.float64] = variants[order[: effort.searched_roundings]]
+    return out
+
+
+# A pure constant table of k (up to 8 MB for k = 8), built once per k instead of once per
+# hard set; read-only, so sharing it cannot leak changes.
+@lru_cache(maxsize=16)
+def _corner_offsets(k: int) -> NDArray[np.float64]:
+    """All ``4^k`` ways ``(4^k, k, 2)`` to add 0 or 1 to each coordinate of ``k`` points."""
+    bits = (np.arange(1 << (2 * k))[:, None] >> np.arange(2 * k)) & 1
+    out: NDArray[np.float64] = bits.reshape(-1, k, 2).astype(np.float64)
+    out.flags.writeable = False
+    return out
+
+
+def exact_roundings(
+    cont: NDArray[np.float64], signs: NDArray[np.float64], effort: RealizeEffort, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Best integer sets among all floor/ceiling roundings of shifted and shrunk optima.
+
+    Parameters
+    ----------
+    cont : ndarray of float64, shape (k, 2)
+        Continuous optimum in [0, GRID_MAX]² (grid units).
+    signs : ndarray of float64, shape (C(k, 3),)
+        Orientation signs to keep.
+    effort : RealizeEffort
+        ``exact_variants`` variants (the optimum, then sub-pixel shifts and shrinks by up
+        to 1 %), each rounded in all ``4^k`` ways; the ``exact_keep`` best of each kept.
+    rng : numpy.random.Generator
+        Source of the shifts and shrinks.
+
+    Returns
+    -------
+    ndarray of float64, shape (exact_variants · exact_keep, k, 2)
+        Integer-valued candidates (grid units), best first within each variant.
+    """
+    k = cont.shape[0]
+    offsets = _corner_offsets(k)
+    centre = GRID_MAX / 2.0
+    out: list[NDArray[np.float64]] = []
+    for v in range(effort.exact_variants):
+        if v == 0:
+            moved = cont
+        else:
+            moved = centre + (1.0 - rng.uniform(0.0, 0.01)) * (cont - centre) + rng.uniform(-0.5, 0.5, 2)
+        cands = np.clip(np.floor(moved)[None] + offsets, 0.0, float(GRID_MAX))
+        terms = signed_mp_terms(cands, np.broadcast_to(signs, (cands.shape[0], signs.size)))
+        low = terms.min(axis=1)
+        m = min(effort.exact_keep, low.size)
+        top = np.argpartition(-low, m - 1)[:m]
+        top = top[np.lexsort((top, -low[top]))]
+        out.append(cands[top])
+    return np.concatenate(out) if out else np.zeros((0, k, 2))
+
+
+# A pure constant table (216 camera rotations), built once instead of per set.
+@lru_cache(maxsize=4)
+def _tilt_views() -> NDArray[np.float64]:
+    """First two columns ``(V, 3, 2)`` of the camera rotations ``Ry(θ2) · Rz(θ1)`` of the
+    strongest tilts of the rotation experiment: θ1 = 0°, 10°, …, 350°, θ2 = 84°, …, 89°."""
+    t1, t2 = np.meshgrid(np.arange(0.0, 360.0, 10.0), np.arange(84.0, 90.0), indexing="ij")
+    a, b = np.deg2rad(t1.ravel()), np.deg2rad(t2.ravel())
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    col0 = np.stack([cb * ca, sa, -sb * ca], axis=1)
+    col1 = np.stack([-cb * sa, ca, sb * sa], axis=1)
+    out: NDArray[np.float64] = np.stack([col0, col1], axis=2)
+    out.flags.writeable = False
+    return out
+
+
+def tilt_failures(points: ArrayLike) -> NDArray[np.int64]:
+    """Number of strongly tilted camera views under which a set changes its order type.
+
+    A proxy of the projection experiment's failures: views at distance 1000 with
+    f = 1000 px, θ2 = 84° … 89° and 36 values of θ1; a view fails when the rounded pixel
+    positions change a triple orientation.
+
+    Parameters
+    ----------
+    points : array_like, shape (B, k, 2)
+        Point sets (grid units), centred on their mean before projection.
+
+    Returns
+    -------
+    ndarray of int64, shape (B,)
+        Failing views per set, 0 … 216.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    views = _tilt_views()
+    centred = pts - pts.mean(axis=1, keepdims=True)
+    cam = np.einsum("vij,bkj->bvki", views, centred)
+    depth = cam[..., 2] + _DISTANCE
+    u = np.floor(_FOCAL * cam[..., 0] / depth + 0.5)
+    v = np.floor(_FOCAL * cam[..., 1] / depth + 0.5)
+    d, _ = triple_figures(np.stack([u, v], axis=-1))
+    signs = triple_signs(pts)[:, None, :]
+    out: NDArray[np.int64] = (np.sign(d) != signs).any(axis=-1).sum(axis=-1).astype(np.int64)
+    return out
+
+
+def tilt_choice(points: NDArray[np.int64], mps: NDArray[np.float64], tol: float) -> int:
+    """Which of several integer realizations of one set to keep.
+
+    The fewest :func:`tilt_failures` among those with MP ≥ max((1 − tol) · best, the
+    largest MP step ≤ best), then the larger MP, then the first.
+
+    Parameters
+    ----------
+    points : ndarray of int64, shape (M, k, 2)
+        Candidate realizations (grid units).
+    mps : ndarray of float64, shape (M,)
+        Their MP (grid units).
+    tol : float
+        Relative MP that may be given up for fewer tilt failures.
+
+    Returns
+    -------
+    int
+        Index into ``points``.
+    """
+    best = float(mps.max())
+    steps = _MP_STEPS[best + _KEY_EPS >= _MP_STEPS]
+    floor = max(best * (1.0 - tol), float(steps.max()) if steps.size else 0.0)
+    ok = np.flatnonzero(mps >= floor - _KEY_EPS)
+    fails = tilt_failures(points[ok])
+    order = np.lexsort((ok, -mps[ok], fails))
+    return int(ok[order[0]])

@@ -1,0 +1,62 @@
+"""Tests of ottag_db.core.placement: the placed set keeps its order type and the margins."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from ottag_db.core.canonical import canonical_batch, canonical_lambda
+from ottag_db.core.geometry import maximal_perturbations
+from ottag_db.core.placement import tag_placement, tag_placements
+from ottag_db.errors import ExportError, UsageError
+from tests.support.paper import FIG4, FIG8
+
+SETS = [np.array(FIG4), np.array(FIG8), np.array([(20, 20), (230, 40), (200, 230), (60, 200), (120, 110)])]
+
+
+def _apply(maps: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    placed: np.ndarray = np.einsum("bxy,bky->bkx", maps[:, :, :2], pts) + maps[:, None, :, 2]
+    return placed
+
+
+def test_bundled_sets_keep_their_ids_and_margins(bundled_sets: dict[int, np.ndarray]) -> None:
+    pts = bundled_sets[7].astype(float)
+    maps = tag_placements(pts)
+    placed = _apply(maps, pts)
+    assert canonical_batch(placed).texts() == canonical_batch(pts).texts()
+    assert placed.min() >= 0.1 - 1e-9 and placed.max() <= 0.9 + 1e-9
+    # The shear/stretch search starts from the identity's neighbourhood: it never loses to
+    # plain uniform scaling into the same square.
+    extent = (pts.max(axis=1) - pts.min(axis=1)).max(axis=1)
+    assert (maximal_perturbations(placed) >= maximal_perturbations(pts) * 0.8 / extent - 1e-9).all()
+
+
+@settings(deadline=None, max_examples=40)
+@given(
+    idx=st.integers(0, len(SETS) - 1),
+    margin=st.floats(0.0, 0.45),
+    scale=st.floats(0.01, 100.0),
+    tx=st.floats(-1e3, 1e3),
+    ty=st.floats(-1e3, 1e3),
+)
+def test_placement_keeps_the_order_type_and_the_margin(
+    idx: int, margin: float, scale: float, tx: float, ty: float
+) -> None:
+    pts = SETS[idx] * scale + [tx, ty]
+    m = tag_placement(pts, margin)
+    placed = pts @ m[:, :2].T + m[:, 2]
+    assert np.linalg.det(m[:, :2]) > 0  # not mirrored
+    assert canonical_lambda(placed) == canonical_lambda(SETS[idx])
+    assert placed.min() >= margin - 1e-9 and placed.max() <= 1 - margin + 1e-9
+    # Scale-free: the placement of a scaled and shifted copy prints the same points.
+    base = tag_placement(SETS[idx].astype(float), margin)
+    assert placed == pytest.approx(SETS[idx] @ base[:, :2].T + base[:, 2], abs=1e-6)
+
+
+def test_bad_margin_and_degenerate_sets() -> None:
+    with pytest.raises(UsageError):
+        tag_placement(SETS[0], 0.5)
+    with pytest.raises(ExportError):
+        tag_placement(np.array([(0, 0), (1, 1), (2, 2), (5, 0)]))

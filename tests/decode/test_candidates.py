@@ -1,0 +1,57 @@
+"""Candidate stage: quads of a binarized frame, corner order, duplicates."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ottag_db.decode import DetectorParams
+from ottag_db.decode.candidates import around_detection, clockwise, find_quads, same_quad, same_tag
+from ottag_db.decode.types import Detection, Quad
+from tests.decode import synthetic as syn
+
+
+def _expected_corners(side: float, origin: tuple[float, float]) -> np.ndarray:
+    x, y = origin
+    return np.array([[x, y], [x + side, y], [x + side, y + side], [x, y + side]]) - 0.5
+
+
+def test_quads_of_a_tag_in_both_polarities() -> None:
+    params = DetectorParams()
+    for inverted in (False, True):
+        image = syn.draw_tags((300, 400), [(160, (60, 70))], inverted=inverted)
+        for kind in ("adaptive", "otsu"):
+            quads = [q for q in find_quads(image, kind, params) if abs(q.area - 160**2) < 0.1 * 160**2]
+            assert len(quads) == 1, (inverted, kind)
+            q = quads[0]
+            assert q.polarity == ("inverted" if inverted else "normal")
+            # the automatic local threshold searches at half resolution: corners to ±2 half-res px
+            assert np.abs(q.corners - _expected_corners(160, (60, 70))).max() <= 4.0
+
+
+def test_polarity_filter_and_size_limits() -> None:
+    image = syn.draw_tags((300, 400), [(160, (60, 70))])
+    assert all(q.polarity == "normal" for q in find_quads(image, "otsu", DetectorParams(polarities=("normal",))))
+    only_inverted = find_quads(image, "otsu", DetectorParams(polarities=("inverted",)))
+    assert all(q.polarity == "inverted" for q in only_inverted)
+    assert find_quads(image, "otsu", DetectorParams(min_quad_area_px=200**2)) == []
+    assert find_quads(np.full((50, 50), 255, np.uint8), "otsu", DetectorParams()) == []
+
+
+def test_clockwise_starts_nearest_the_origin() -> None:
+    q = np.array([[10, 10], [0, 10], [10, 0], [0, 0.0]])
+    assert clockwise(q).tolist() == [[0, 0], [10, 0], [10, 10], [0, 10]]
+
+
+def test_same_quad_same_tag_and_around_detection() -> None:
+    c = np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]])
+    a = Quad("normal", c, 10000.0)
+    assert same_quad(a, Quad("normal", c + 2, 10000.0))
+    assert not same_quad(a, Quad("inverted", c, 10000.0))
+    assert not same_quad(a, Quad("normal", c * 2, 40000.0))
+    det = Detection("3:010001100", 3, 1, 1, "normal", np.zeros((3, 2)), None, c, None, None, 5.0)
+    assert same_tag(det, det) and not same_tag(det, replace(det, polarity="inverted"))
+    frame = Quad("normal", (c - 50) * 2 + 50, 40000.0)  # the quiet zone's outline around the tag
+    assert around_detection(frame, [det])
+    assert not around_detection(Quad("normal", c * 0.5, 2500.0), [det])
