@@ -8,7 +8,6 @@ Every test that can run on the bundled data does (its IDs equal the reference fi
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -20,17 +19,13 @@ from ottag_db.files.bundled import bundled_point_files
 from ottag_db.files.pointfile import read_point_file
 from ottag_db.store.db import Database, open_database
 from ottag_db.store.importer import import_point_file
-
-
-def _otdb() -> Path | None:
-    value = os.environ.get("OTTAG_AICHHOLZER_DIR")
-    return Path(value) if value else None
+from tests.support.sources import POINT_SET_SOURCES, aichholzer_dir
 
 
 @pytest.fixture(scope="session")
 def otdb_dir() -> Path:
     """Folder with Aichholzer's otypes03.b08 … otypes08.b08 (skips when not configured)."""
-    d = _otdb()
+    d = aichholzer_dir()
     if d is None or not (d / "otypes08.b08").exists():
         pytest.skip("set OTTAG_AICHHOLZER_DIR to the folder with otypes03.b08 … otypes08.b08")
     return d
@@ -63,6 +58,15 @@ def bundled_db_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
     finally:
         db.close()
     return path
+
+
+@pytest.fixture(params=POINT_SET_SOURCES)
+def point_sets(request: pytest.FixtureRequest) -> dict[int, np.ndarray]:
+    """Point sets per k (3 … 8) of one source (``bundled_sets`` or ``reference_sets``),
+    ``(records, k, 2)`` int64, one per reflection pair: the same order types (the same IDs),
+    other coordinates."""
+    sets: dict[int, np.ndarray] = request.getfixturevalue(f"{request.param}_sets")
+    return sets
 
 
 def build_reference_db(path: Path, otdb: Path, *, with_mirrors: bool) -> Path:

@@ -8,7 +8,7 @@ from numpy.typing import ArrayLike, NDArray
 from ottag_db.core.geometry import as_point_batch
 from ottag_db.errors import ExportError, UsageError
 
-__all__ = ["DEFAULT_INNER_MARGIN", "tag_placement", "tag_placements"]
+__all__ = ["DEFAULT_INNER_MARGIN", "apply_placements", "tag_placement", "tag_placements"]
 
 #: Default smallest distance between a point and the data-area border, in data-area units.
 DEFAULT_INNER_MARGIN = 0.10
@@ -156,3 +156,24 @@ def tag_placement(points: ArrayLike, inner_margin: float = DEFAULT_INNER_MARGIN)
     if arr.ndim != 2:
         raise ValueError(f"tag_placement takes one point set of shape (k, 2), got {arr.shape}")
     return np.asarray(tag_placements(arr[None], inner_margin)[0], dtype=np.float64)
+
+
+def apply_placements(maps: ArrayLike, points_batch: ArrayLike) -> NDArray[np.float64]:
+    """Points of each set in data-area units: ``M[:, :2] @ p + M[:, 2]`` per set.
+
+    Parameters
+    ----------
+    maps : array_like, shape (B, 2, 3)
+        Affine maps as :func:`tag_placements` returns them (file coordinates → data-area units).
+    points_batch : array_like, shape (B, k, 2)
+        The sets in file coordinates (grid units), file order.
+
+    Returns
+    -------
+    ndarray of float64, shape (B, k, 2)
+        The placed points: x right, y down, the data area is [0, 1]².
+    """
+    m = np.asarray(maps, dtype=np.float64)
+    pts = np.asarray(points_batch, dtype=np.float64)
+    placed: NDArray[np.float64] = np.einsum("bxy,bky->bkx", m[:, :, :2], pts) + m[:, None, :, 2]
+    return placed

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ottag_db.core.geometry import as_point_batch, maximal_perturbations
-from ottag_db.core.placement import DEFAULT_INNER_MARGIN, tag_placements
+from ottag_db.core.placement import DEFAULT_INNER_MARGIN, apply_placements, tag_placements
 from ottag_db.core.types import POLARITIES, Polarity
 from ottag_db.errors import ExportError, UsageError
 
@@ -173,7 +173,7 @@ def build_tag_geometries(
         maps = np.asarray(placements, dtype=np.float64)
         if maps.shape != (pts.shape[0], 2, 3):
             raise ValueError(f"{pts.shape[0]} point sets need placements of shape (B, 2, 3), got {maps.shape}")
-    placed = np.einsum("bxy,bky->bkx", maps[:, :, :2], pts) + maps[:, None, :, 2]
+    placed = apply_placements(maps, pts)
     mps = maximal_perturbations(placed)
     k = pts.shape[1]
     out: list[TagGeometry] = []

@@ -13,6 +13,7 @@ from datetime import datetime
 from typing import Any
 
 from sqlalchemy import func, select
+from sqlalchemy.orm import Session
 
 from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import DictionaryError, NotFoundError, UsageError
@@ -28,6 +29,7 @@ __all__ = [
     "check_dictionary_name",
     "create_dictionary",
     "delete_dictionary",
+    "find_dictionary",
     "get_dictionary",
     "list_dictionaries",
 ]
@@ -239,6 +241,32 @@ def list_dictionaries(db: Database) -> list[tuple[str, int, int, datetime]]:
     return [(str(a), int(b), int(c), d) for a, b, c, d in rows]
 
 
+def find_dictionary(session: Session, name: str) -> Dictionary:
+    """The stored dictionary called ``name``.
+
+    Parameters
+    ----------
+    session : Session
+        An open session of the database.
+    name : str
+        Dictionary name.
+
+    Returns
+    -------
+    Dictionary
+        Its ORM row (members in ``tags``).
+
+    Raises
+    ------
+    NotFoundError
+        No dictionary of that name; the message points at ``ottag-db dictionary list``.
+    """
+    d = session.execute(select(Dictionary).where(Dictionary.name == name)).scalar_one_or_none()
+    if d is None:
+        raise NotFoundError(f"no dictionary named {name!r} (see `ottag-db dictionary list`)")
+    return d
+
+
 def get_dictionary(db: Database, name: str) -> DictionaryInfo:
     """A stored dictionary with every member (points and triangles of its tag realization).
 
@@ -260,9 +288,7 @@ def get_dictionary(db: Database, name: str) -> DictionaryInfo:
         No dictionary of that name.
     """
     with db.session() as s:
-        d = s.execute(select(Dictionary).where(Dictionary.name == name)).scalar_one_or_none()
-        if d is None:
-            raise NotFoundError(f"no dictionary named {name!r} (see `ottag-db dictionary list`)")
+        d = find_dictionary(s, name)
         rows = [(m.number, m.order_type_id, m.polarity) for m in d.tags]
         info_head = (d.name, d.min_flip_distance, json.loads(d.parameters), d.created_at)
         numbers = dict(
@@ -316,9 +342,7 @@ def delete_dictionary(db: Database, name: str) -> int:
         No dictionary of that name.
     """
     with db.session() as s:
-        d = s.execute(select(Dictionary).where(Dictionary.name == name)).scalar_one_or_none()
-        if d is None:
-            raise NotFoundError(f"no dictionary named {name!r}")
+        d = find_dictionary(s, name)
         n = len(d.tags)
         s.delete(d)  # members go with it (delete-orphan cascade)
     return n

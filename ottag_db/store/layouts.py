@@ -15,7 +15,7 @@ from sqlalchemy import Connection, insert, select
 
 from ottag_db.core.geometry import maximal_perturbations
 from ottag_db.core.layout import compute_layouts, layout_supported
-from ottag_db.core.placement import tag_placements
+from ottag_db.core.placement import apply_placements, tag_placements
 from ottag_db.core.types import ProgressCallback
 from ottag_db.store.db import Database
 from ottag_db.store.models import LayoutRow, OrderType, Realization, coordinates_from_blob
@@ -87,7 +87,7 @@ def store_layouts(conn: Connection, rows: Sequence[tuple[int, bytes]]) -> int:
     pts = np.stack([coordinates_from_blob(blob) for _, blob in rows]).astype(np.float64)
     layouts = compute_layouts(pts)
     maps = tag_placements(pts)
-    placed = np.einsum("bxy,bky->bkx", maps[:, :, :2], pts) + maps[:, None, :, 2]
+    placed = apply_placements(maps, pts)
     printed = maximal_perturbations(placed)
     values = [
         {

@@ -11,8 +11,8 @@ from sqlalchemy import func, select
 from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.errors import NotFoundError
 from ottag_db.store.db import Database
-from ottag_db.store.dictionaries import get_dictionary
-from ottag_db.store.models import Dictionary, DictionaryTag, FlipEdgeRow, OrderType, Realization, coordinates_from_blob
+from ottag_db.store.dictionaries import find_dictionary, get_dictionary
+from ottag_db.store.models import DictionaryTag, FlipEdgeRow, OrderType, Realization, coordinates_from_blob
 
 __all__ = ["dictionary_lookup", "load_lookup", "neighbour_members"]
 
@@ -135,9 +135,7 @@ def neighbour_members(db: Database, name: str) -> dict[str, int]:
         No dictionary of that name.
     """
     with db.session() as s:
-        d = s.execute(select(Dictionary).where(Dictionary.name == name)).scalar_one_or_none()
-        if d is None:
-            raise NotFoundError(f"no dictionary named {name!r}")
+        d = find_dictionary(s, name)
         rows = s.execute(
             select(OrderType.lambda_text, func.min(DictionaryTag.number))
             .join(FlipEdgeRow, FlipEdgeRow.source_id == OrderType.id)

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from pypdf import PdfReader
+from sqlalchemy import select
 
 from ottag_db.app.export import (
     TagFilter,
@@ -25,6 +26,7 @@ from ottag_db.app.export import (
 )
 from ottag_db.core.canonical import canonical_form
 from ottag_db.core.layout_check import validate_layout
+from ottag_db.core.placement import apply_placements
 from ottag_db.errors import ExportError, NotFoundError, UsageError
 from ottag_db.printing.geometry import build_tag_geometries
 from ottag_db.printing.sheet import SheetOptions
@@ -109,14 +111,8 @@ def test_geometry_from_stored_placements_equals_a_fresh_placement(bundled_db_pat
         assert g.mp_unit == t.printed_mp_unit
 
 
-def test_export_reads_only(db_copy: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A read-only database file exports, its bytes stay the same and nothing is placed afresh."""
-
-    def no_placement(*_args: object, **_kwargs: object) -> None:
-        raise AssertionError("export must use the stored placements")
-
-    monkeypatch.setattr("ottag_db.printing.geometry.tag_placements", no_placement)
-    monkeypatch.setattr("ottag_db.store.layouts.tag_placements", no_placement)
+def test_export_reads_only(db_copy: Path, tmp_path: Path) -> None:
+    """A read-only database file exports and renders; its bytes stay the same."""
     before = db_copy.read_bytes()
     db_copy.chmod(0o444)
     db = open_database(f"sqlite:///file:{db_copy}?mode=ro&uri=true")
@@ -127,6 +123,24 @@ def test_export_reads_only(db_copy: Path, tmp_path: Path, monkeypatch: pytest.Mo
     finally:
         db.close()
     assert db_copy.read_bytes() == before
+
+
+def test_export_draws_the_stored_placement(db_copy: Path) -> None:
+    """Export reads each tag's placement from the database instead of placing it afresh: a
+    stored map changed by hand is the one drawn."""
+    db = open_database(db_copy)
+    try:
+        (tag,) = select_tags(db, lambdas=[TABLE9_TEXT])
+        moved = tag.placement * np.array([[0.9], [0.9]]) + np.array([[0, 0, 0.05], [0, 0, 0.05]])
+        with db.session() as s:
+            row = s.execute(select(LayoutRow).where(LayoutRow.realization_id == tag.realization_id)).scalar_one()
+            row.placement = json.dumps(moved.tolist())
+        (reread,) = select_tags(db, lambdas=[TABLE9_TEXT])
+    finally:
+        db.close()
+    (geom,) = tag_geometries([reread], "normal", 40.0)
+    assert np.allclose(np.asarray(geom.points_array), apply_placements(moved[None], reread.points[None])[0])
+    assert not np.allclose(moved, tag.placement)
 
 
 def test_export_is_deterministic(db_copy: Path, tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ import numpy as np
 from ottag_db.decode import DetectorParams
 from ottag_db.decode.candidates import around_detection, clockwise, find_quads, same_quad, same_tag
 from ottag_db.decode.types import Detection, Quad
-from tests.decode import synthetic as syn
+from tests.support import synthetic_tags as syn
 
 
 def _expected_corners(side: float, origin: tuple[float, float]) -> np.ndarray:

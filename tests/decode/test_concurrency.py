@@ -7,7 +7,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from ottag_db.decode import Detection, Detector, Rejected
-from tests.decode import synthetic as syn
+from tests.support import synthetic_tags as syn
 
 
 def _key(result: tuple[list[Detection], list[Rejected]]) -> tuple[object, ...]:

@@ -9,7 +9,7 @@ from ottag_db.decode import DetectorParams
 from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.types import Detection, Quad, Rejection
-from tests.decode import synthetic as syn
+from tests.support import synthetic_tags as syn
 
 SIDE, ORIGIN = 200.0, (20.0, 30.0)
 

@@ -6,7 +6,7 @@ import time
 
 from ottag_db.decode import STAGES, Detector
 from ottag_db.decode.profile import StageClock
-from tests.decode import synthetic as syn
+from tests.support import synthetic_tags as syn
 
 
 def test_clock_charges_each_lap_to_its_stage() -> None:

@@ -8,7 +8,7 @@ import numpy as np
 from ottag_db.decode import DetectorParams
 from ottag_db.decode.segmentation import NO_DECOMPOSITION, bridge, decompose, segment, then_alternatives
 from ottag_db.decode.types import DataArea, Decomposition, Quad, Rejection
-from tests.decode import synthetic as syn
+from tests.support import synthetic_tags as syn
 
 
 def _quad(side: float, origin: tuple[float, float], polarity: str = "normal") -> Quad:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +17,7 @@ from ottag_db.files.pointfile import (
     read_point_file,
     write_point_file,
 )
-
-#: The bundled data always; Aichholzer's reference files as an extra layer when configured.
-SOURCES = ["bundled"] + (["reference"] if os.environ.get("OTTAG_AICHHOLZER_DIR") else [])
+from tests.support.sources import POINT_SET_SOURCES
 
 
 def test_round_trip_b08_and_b16(tmp_path: Path) -> None:
@@ -45,7 +42,7 @@ def test_streaming_chunks_cover_the_file(tmp_path: Path) -> None:
     assert np.array_equal(np.concatenate([c for _, c in chunks]), pts)
 
 
-@pytest.fixture(params=SOURCES)
+@pytest.fixture(params=POINT_SET_SOURCES)
 def official_dir(request: pytest.FixtureRequest, tmp_path: Path) -> Path:
     """A folder with ``otypes03.b08`` … ``otypes08.b08``: the bundled records under the official
     names (same record counts), or Aichholzer's files as the extra layer."""

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from ottag_db.app.generating import file_name, generate_database
+from ottag_db.app.reports import PAPER_TABLE7
 from ottag_db.core.canonical import canonical_batch, canonicalize_lambdas, mirror_lambdas
 from ottag_db.core.geometry import lambda_matrices, maximal_perturbations
 from ottag_db.core.types import COMPLETE_COUNTS, MP_THRESHOLDS
@@ -21,28 +21,11 @@ from ottag_db.generation.arrangement import insertion_candidates
 from ottag_db.generation.enumeration import EnumeratedSet, enumerate_order_types, mirror_points
 from ottag_db.generation.objective import relative_mp
 
-#: The bundled data always; Aichholzer's reference files as an extra layer when configured.
-SOURCES = ["bundled"] + (["reference"] if os.environ.get("OTTAG_AICHHOLZER_DIR") else [])
-#: Paper's Table 7: number of reference sets with MP ≥ v, v = 0.5, 1.0, …, 9.0.
-PAPER_TABLE7 = {
-    8: (3315, 3296, 1240, 642, 371, 231, 135, 83, 56, 37, 26, 15, 10, 6, 5, 4, 3, 3),
-    7: (135, 135, 135, 135, 135, 86, 60, 47, 32, 26, 18, 15, 8, 7, 4, 3, 3, 3),
-    6: (16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 16, 12, 10, 8, 6, 5),
-    5: (3,) * 18,
-}
-
 
 def texts_with_mirrors(points: np.ndarray) -> set[str]:
     """Canonical IDs of the sets and of their mirror images."""
     lam = lambda_matrices(points)
     return set(canonicalize_lambdas(lam).texts()) | set(canonicalize_lambdas(mirror_lambdas(lam)).texts())
-
-
-@pytest.fixture(params=SOURCES)
-def point_sets(request: pytest.FixtureRequest) -> dict[int, np.ndarray]:
-    """Point sets per k of one source (``bundled_sets`` or ``reference_sets``)."""
-    sets: dict[int, np.ndarray] = request.getfixturevalue(f"{request.param}_sets")
-    return sets
 
 
 @pytest.fixture(scope="module")
