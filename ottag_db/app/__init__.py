@@ -5,8 +5,9 @@
 - :mod:`~ottag_db.app.export`: tag sheets and single-tag renders from the database;
 - :mod:`~ottag_db.app.options`: sheet settings from option texts;
 - :mod:`~ottag_db.app.detector`: a detector whose lookup comes from a database;
-- :mod:`~ottag_db.app.decode_batch` and :mod:`~ottag_db.app.decoding`: decoding image files
-  (options, JSON records, pose, drawings);
+- :mod:`~ottag_db.app.decode_batch`, :mod:`~ottag_db.app.decoding` and
+  :mod:`~ottag_db.app.video`: decoding image and video files (options, JSON records, pose,
+  drawings);
 - :mod:`~ottag_db.app.dictionary_io`: dictionary exports as files;
 - :mod:`~ottag_db.app.generating`: re-creating the bundled data.
 """

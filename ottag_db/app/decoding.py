@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,7 +17,16 @@ from ottag_db.core.placement import tag_placement
 from ottag_db.decode import Detection, Detector, estimate_pose, to_gray
 from ottag_db.errors import DecodeError, UsageError
 
-__all__ = ["Camera", "decode_file", "detection_json", "draw_detections", "load_camera", "read_image"]
+__all__ = [
+    "Camera",
+    "annotate_detections",
+    "decode_array",
+    "decode_file",
+    "detection_json",
+    "draw_detections",
+    "load_camera",
+    "read_image",
+]
 
 
 @dataclass(frozen=True)
@@ -76,7 +86,11 @@ def load_camera(path: str | os.PathLike[str]) -> Camera:
 
 
 def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
-    """Read an image file as stored; raises :class:`DecodeError` for a missing or unreadable file.
+    """Read an image file as stored; raises :class:`DecodeError` for a missing, unreadable,
+    truncated or damaged file.
+
+    A JPEG or PNG that ends before its last marker (an interrupted copy or download) is refused
+    before decoding, where OpenCV would return the top part and only warn.
 
     Parameters
     ----------
@@ -93,10 +107,59 @@ def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
         raise DecodeError(f"{p}: no such file")
     if p.is_dir():
         raise DecodeError(f"{p}: is a directory, not an image")
-    img = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+    try:
+        data = p.read_bytes()
+    except OSError as exc:
+        raise DecodeError(f"{p}: cannot read the file ({exc.strerror or exc})") from exc
+    damage = _truncation(data)
+    if damage is not None:
+        raise DecodeError(f"{p}: {damage}; copy or export the file again")
+    img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED) if data else None
     if img is None:
-        raise DecodeError(f"{p}: not an image OpenCV can read (PNG, JPEG, TIFF, BMP, …)")
+        raise DecodeError(f"{p}: not an image OpenCV can read, or a damaged one (PNG, JPEG, TIFF, BMP, …)")
     return np.asarray(img)
+
+
+#: A JPEG marker inside entropy-coded data: 0xFF not followed by 0x00 (stuffing), RSTn or 0xFF.
+_JPEG_MARKER = re.compile(rb"\xff[^\x00\xd0-\xd7\xff]")
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def _truncation(data: bytes) -> str | None:
+    """Why a JPEG or PNG file is cut short, or None (also for other formats and when unsure)."""
+    n = len(data)
+    if data[:2] == b"\xff\xd8":
+        pos = 2
+        while pos + 1 < n:
+            if data[pos] != 0xFF:
+                return None  # not the structure we know: leave the verdict to the decoder
+            marker = data[pos + 1]
+            if marker == 0xD9:
+                return None
+            if marker == 0xFF:
+                pos += 1
+                continue
+            if 0xD0 <= marker <= 0xD7 or marker == 0x01:
+                pos += 2
+                continue
+            if pos + 4 > n:
+                break
+            pos += 2 + int.from_bytes(data[pos + 2 : pos + 4], "big")
+            if marker == 0xDA:  # start of scan: coded data up to the next marker
+                found = _JPEG_MARKER.search(data, pos)
+                if found is None:
+                    break
+                pos = found.start()
+        return f"truncated JPEG: the file ends after {n} bytes, before the end-of-image marker"
+    if data[:8] == _PNG_SIGNATURE:
+        pos = 8
+        while pos + 8 <= n:
+            length = int.from_bytes(data[pos : pos + 4], "big")
+            if data[pos + 4 : pos + 8] == b"IEND":
+                return None
+            pos += 12 + length
+        return f"truncated PNG: the file ends after {n} bytes, before the IEND chunk"
+    return None
 
 
 def _arr(a: NDArray[np.float64] | None, digits: int = 3) -> Any:
@@ -160,8 +223,8 @@ def detection_json(
     return out
 
 
-def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path) -> None:
-    """Write ``image`` with data-area outlines, labelled points and IDs to ``out``.
+def annotate_detections(image: NDArray[Any], detections: list[Detection]) -> NDArray[np.uint8]:
+    """The image in grey with data-area outlines, labelled points and IDs drawn in colour.
 
     Parameters
     ----------
@@ -169,8 +232,11 @@ def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path)
         The decoded image (any array :func:`~ottag_db.decode.to_gray` accepts).
     detections : list of Detection
         What to draw.
-    out : Path
-        The image file to write; raises :class:`DecodeError` when it cannot be written.
+
+    Returns
+    -------
+    numpy.ndarray, shape (H, W, 3), uint8
+        The annotated BGR picture.
     """
     canvas = cv2.cvtColor(to_gray(image), cv2.COLOR_GRAY2BGR)
     for d in detections:
@@ -184,8 +250,68 @@ def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path)
         cx, cy = d.center
         text = f"k={d.k} #{d.order_type_id}" + (f" tag {d.tag}" if d.tag is not None else "") + f" {d.polarity}"
         cv2.putText(canvas, text, (int(cx) - 40, int(cy)), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 255), 1, cv2.LINE_AA)
-    if not cv2.imwrite(str(out), canvas):
+    return np.asarray(canvas, dtype=np.uint8)
+
+
+def draw_detections(image: NDArray[Any], detections: list[Detection], out: Path) -> None:
+    """Write ``image`` with data-area outlines, labelled points and IDs to ``out``.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        The decoded image (any array :func:`~ottag_db.decode.to_gray` accepts).
+    detections : list of Detection
+        What to draw.
+    out : Path
+        The image file to write; raises :class:`DecodeError` when it cannot be written.
+    """
+    if not cv2.imwrite(str(out), annotate_detections(image, detections)):
         raise DecodeError(f"{out}: could not write the drawing")
+
+
+def decode_array(
+    detector: Detector,
+    image: NDArray[Any],
+    *,
+    camera: Camera | None = None,
+    tag_size: float | None = None,
+    numbers: dict[int, int | None] | None = None,
+) -> tuple[dict[str, Any], list[Detection]]:
+    """Decode pixels already in memory (an image or a video frame) into the record's fields.
+
+    Parameters
+    ----------
+    detector : Detector
+        The configured detector.
+    image : numpy.ndarray
+        The pixels (any array :func:`~ottag_db.decode.to_gray` accepts).
+    camera, tag_size : Camera, float or None
+        Pose for every detection when both are given (see :func:`detection_json`).
+    numbers : dict or None
+        Order-type id → universal number for the output.
+
+    Returns
+    -------
+    fields : dict
+        ``{"detections", "rejected", "rejections"}`` (the README's contract).
+    detections : list of Detection
+        The detections themselves (for drawing).
+    """
+    detections, rejected = detector.detect_with_rejections(image)
+    nums = numbers or {}
+    fields: dict[str, Any] = {
+        "detections": [
+            detection_json(
+                d, camera=camera, tag_size=tag_size, number=nums.get(d.order_type_id) if d.order_type_id else None
+            )
+            for d in detections
+        ],
+        "rejected": len(rejected),
+        "rejections": [
+            {"reason": r.reason, "polarity": r.polarity, "lambda": r.lambda_text, "detail": r.detail} for r in rejected
+        ],
+    }
+    return fields, detections
 
 
 def decode_file(
@@ -222,21 +348,11 @@ def decode_file(
     record: dict[str, Any] = {"image": str(path), "detections": [], "rejected": 0}
     try:
         image = read_image(path)
-        detections, rejected = detector.detect_with_rejections(image)
+        fields, detections = decode_array(detector, image, camera=camera, tag_size=tag_size, numbers=numbers)
     except DecodeError as exc:
         record["error"] = str(exc)
         return record
-    nums = numbers or {}
-    record["detections"] = [
-        detection_json(
-            d, camera=camera, tag_size=tag_size, number=nums.get(d.order_type_id) if d.order_type_id else None
-        )
-        for d in detections
-    ]
-    record["rejected"] = len(rejected)
-    record["rejections"] = [
-        {"reason": r.reason, "polarity": r.polarity, "lambda": r.lambda_text, "detail": r.detail} for r in rejected
-    ]
+    record.update(fields)
     if draw_dir is not None:
         draw_detections(image, detections, draw_dir / (Path(path).stem + "_decoded.png"))
     return record

@@ -1,9 +1,12 @@
-"""The ``decode`` command: find tags in image files and print what was read."""
+"""The ``decode`` command: find tags in image and video files and print what was read."""
 
 from __future__ import annotations
 
+import itertools
 import json
+import sys
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -12,18 +15,82 @@ from ottag_db.cli.common import TAG_SIZE_HELP, CliError, db_options, note, open_
 __all__ = ["decode_cmd"]
 
 
+class _FrameBar:
+    """A progress bar on stderr per video: frames read of the total, or a count when unknown."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.path: Path | None = None
+        self._bar: Any = None
+        self._done = 0
+
+    def __call__(self, path: Path, done: int, total: int) -> None:
+        if self.quiet:
+            return
+        if path != self.path:
+            self.close()
+            self.path = path
+            label = f"{path.name} (frames)"
+            if total > 0:
+                self._bar = click.progressbar(length=total, label=label, file=sys.stderr, show_pos=True)
+            else:
+                self._bar = click.progressbar(itertools.repeat(None), label=label, file=sys.stderr, show_pos=True)
+            self._bar.__enter__()
+        if self._bar is not None:
+            self._bar.update(done - self._done)
+        self._done = done
+
+    def close(self) -> None:
+        """End the current bar."""
+        if self._bar is not None:
+            self._bar.__exit__(None, None, None)
+        self._bar = None
+        self.path = None
+        self._done = 0
+
+
+def _print_image(path: str, record: dict[str, Any]) -> None:
+    dets = record["detections"]
+    click.echo(f"{path}: {len(dets)} tag(s), {record['rejected']} rejected candidate(s)")
+    for d in dets:
+        tag = f" tag {d['tag']}" if d["tag"] is not None else ""
+        pose = ""
+        if "pose" in d:
+            t = d["pose"]["tvec"]
+            pose = f" t = ({t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}) mm"
+        click.echo(
+            f"  k={d['k']} #{d['order_type']} number {d['number']}{tag} {d['polarity']} "
+            f"margin {d['margin_px']:.2f} px{pose}  {d['lambda']}"
+        )
+
+
 @click.command("decode")
-@click.argument("images", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("inputs", nargs=-1, required=True, metavar="IMAGE|VIDEO...", type=click.Path(path_type=Path))
 @click.option(
     "--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags decode; report tag numbers."
 )
-@click.option("--json", "as_json", is_flag=True, help="JSON Lines: one object per image (see README).")
+@click.option(
+    "--json",
+    "as_json",
+    is_flag=True,
+    help="JSON Lines: one object per image, one per decoded video frame (with frame and time_s; see README).",
+)
 @click.option(
     "--draw",
-    "draw_dir",
-    type=click.Path(path_type=Path, file_okay=False),
+    "draw",
+    type=click.Path(path_type=Path),
     default=None,
-    help="Write each image with outlines, points, labels and IDs into DIR.",
+    metavar="DIR|OUT.mp4",
+    help="Annotated outlines, points, labels and IDs. DIR: <stem>_decoded.png per image, <stem>_decoded.mp4 "
+    "per video. A path ending in .mp4/.m4v/.mov/.mkv/.avi: the annotated video of the one video input.",
+)
+@click.option(
+    "--every",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    metavar="N",
+    help="Videos: decode every N-th frame (0, N, 2N, …); an annotated video then has the decoded frames at fps/N.",
 )
 @click.option(
     "--camera",
@@ -36,43 +103,65 @@ __all__ = ["decode_cmd"]
 @db_options
 @quiet_option
 def decode_cmd(
-    images: tuple[Path, ...],
+    inputs: tuple[Path, ...],
     dictionary: str | None,
     as_json: bool,
-    draw_dir: Path | None,
+    draw: Path | None,
+    every: int,
     camera: Path | None,
     tag_size: str | None,
     no_verify: bool,
     db_target: str | None,
     quiet: bool,
 ) -> None:
-    """Find Order Type Tags in IMAGE files; print IDs, points, corners, homography (and pose)."""
-    from ottag_db.app.decode_batch import decode_images, decode_options, prepare_decoding
+    """Find Order Type Tags in IMAGE or VIDEO files; print IDs, points, corners, homography (and pose).
 
-    options = decode_options(camera, tag_size, draw_dir)
+    A file OpenCV recognises as an image is decoded as one; any other file is opened as a video
+    (MP4, AVI, MKV, … whatever OpenCV's FFmpeg reads) and every (N-th) frame is decoded with the
+    same detector. Human-readable output summarises each video: frames, and each tag seen with
+    the frames it was in; --json gives every frame.
+    """
+    from ottag_db.app.decode_batch import decode_inputs, decode_options, prepare_decoding
+    from ottag_db.app.video import VideoTally
+
+    options = decode_options(camera, tag_size, draw, every=every)
     with open_db(db_target, quiet) as db:
         setup = prepare_decoding(db, dictionary, verify=not no_verify)
-    failed = 0
-    for path, record in zip(images, decode_images(setup, images, options), strict=True):
-        if "error" in record:
-            failed += 1
-            note(f"error: {record['error']}")
-        if as_json:
-            click.echo(json.dumps(record))
-            continue
-        if "error" in record:
-            continue
-        dets = record["detections"]
-        click.echo(f"{path}: {len(dets)} tag(s), {record['rejected']} rejected candidate(s)")
-        for d in dets:
-            tag = f" tag {d['tag']}" if d["tag"] is not None else ""
-            pose = ""
-            if "pose" in d:
-                t = d["pose"]["tvec"]
-                pose = f" t = ({t[0]:.1f}, {t[1]:.1f}, {t[2]:.1f}) mm"
-            click.echo(
-                f"  k={d['k']} #{d['order_type']} number {d['number']}{tag} {d['polarity']} "
-                f"margin {d['margin_px']:.2f} px{pose}  {d['lambda']}"
-            )
+    bar = _FrameBar(quiet)
+    failed: list[str] = []
+    tally: VideoTally | None = None
+
+    def flush() -> None:
+        nonlocal tally
+        bar.close()
+        if tally is not None:
+            for line in tally.lines():
+                click.echo(line)
+            tally = None
+
+    try:
+        for record in decode_inputs(setup, inputs, options, progress=bar):
+            path = record["image"]
+            if tally is not None and ("frame" not in record or tally.image != path):
+                flush()
+            if "error" in record:
+                bar.close()
+                failed.append(record["error"])
+                if len(inputs) > 1:
+                    note(f"error: {record['error']}")
+            if as_json:
+                click.echo(json.dumps(record))
+            elif "error" in record:
+                pass
+            elif "frame" in record:
+                if tally is None:
+                    tally = VideoTally(path)
+                tally.add(record)
+            else:
+                _print_image(path, record)
+    finally:
+        flush()
     if failed:
-        raise CliError(f"{failed} of {len(images)} image(s) could not be read")
+        if len(inputs) == 1:
+            raise CliError(failed[0])
+        raise CliError(f"{len(failed)} of {len(inputs)} file(s) could not be read")

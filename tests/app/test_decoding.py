@@ -96,7 +96,7 @@ def test_decode_bad_inputs(runner: CliRunner, dbfile: Path, fig4_png: Path, tmp_
     assert by["one.png"]["detections"] == []
     assert [d["lambda"] for d in by["deep.png"]["detections"]] == [TABLE9_TEXT]
     assert [d["lambda"] for d in by["rgba.png"]["detections"]] == [TABLE9_TEXT]
-    assert "4 of 7 image(s) could not be read" in res.stderr
+    assert "4 of 7 file(s) could not be read" in res.stderr
 
 
 def test_detector_from_database_and_camera_files(dbfile: Path, fig4_png: Path, tmp_path: Path) -> None:
