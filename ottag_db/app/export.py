@@ -167,7 +167,10 @@ def export_sheet(
     """Write a PDF tag sheet of the selected tags (the database is only read).
 
     With ``both`` each tag is followed by its inverted variant. The filter summary and the
-    polarity are printed on every page. With ``dictionary`` the sheet holds that
+    polarity are printed on every page. A sheet of one polarity packs its tags (neighbours
+    share quiet zones, see :mod:`ottag_db.printing.sheet_layout`); with ``both`` (and with
+    cut marks) every tag keeps its whole quiet zone. ``SheetReport.per_page`` says how many
+    tags a page holds. With ``dictionary`` the sheet holds that
     dictionary's members in number order (each in its own polarity, labelled with its tag
     number), narrowed by ``flt``.
 

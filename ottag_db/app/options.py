@@ -20,6 +20,7 @@ def sheet_options(
     spacing: str,
     labels: bool,
     cut_marks: bool,
+    pack: bool = True,
 ) -> SheetOptions:
     """Sheet settings of ``ottag-db export`` from its option texts.
 
@@ -34,11 +35,14 @@ def sheet_options(
     margin : str
         Page margin with a unit.
     spacing : str
-        Space between tags with a unit.
+        Extra paper between neighbouring tags beyond their quiet zones, with a unit (may be 0).
     labels : bool
         A label under each tag.
     cut_marks : bool
-        Corner marks for cutting.
+        Corner marks for cutting (each tag keeps its whole quiet zone).
+    pack : bool
+        Neighbours of one polarity share their quiet zones (see
+        :mod:`ottag_db.printing.sheet_layout`).
 
     Returns
     -------
@@ -48,14 +52,16 @@ def sheet_options(
     Raises
     ------
     UsageError
-        For the first text (in the order of the parameters) without a known unit or not > 0.
+        For the first text (in the order of the parameters) without a known unit or not > 0
+        (spacing: not ≥ 0).
     """
     return SheetOptions(
         tag_size_mm=parse_length(tag_size),
         quiet_zone_mm=None if quiet_zone is None else parse_length(quiet_zone),
         page=parse_page(page),
         margin_mm=parse_length(margin),
-        spacing_mm=parse_length(spacing),
+        spacing_mm=parse_length(spacing, allow_zero=True),
         labels=labels,
         cut_marks=cut_marks,
+        pack=pack,
     )

@@ -25,9 +25,22 @@ __all__ = ["export_cmd", "render_cmd"]
 @click.option("--quiet-zone", default=None, help="White border around the data area [default: 0.25 × tag size].")
 @click.option("--page", default="A4", show_default=True, help="A4, Letter, or WxH with a unit (e.g. 210x297mm).")
 @click.option("--margin", default="10mm", show_default=True, help="Page margin.")
-@click.option("--spacing", default="5mm", show_default=True, help="Space between tags.")
-@click.option("--labels/--no-labels", default=True, show_default=True, help="Label under each tag.")
-@click.option("--cut-marks/--no-cut-marks", default=False, show_default=True, help="Corner marks for cutting.")
+@click.option("--spacing", default="0mm", show_default=True, help="Extra paper between tags, beyond their quiet zones.")
+@click.option(
+    "--pack/--no-pack",
+    default=True,
+    show_default=True,
+    help="Tags of one polarity share their quiet zones (off with --cut-marks).",
+)
+@click.option(
+    "--labels/--no-labels", default=True, show_default=True, help="Label under each tag, outside the quiet zones."
+)
+@click.option(
+    "--cut-marks/--no-cut-marks",
+    default=False,
+    show_default=True,
+    help="Corner marks for cutting; every tag keeps its whole quiet zone.",
+)
 @db_options
 @quiet_option
 def export_cmd(
@@ -43,6 +56,7 @@ def export_cmd(
     page: str,
     margin: str,
     spacing: str,
+    pack: bool,
     labels: bool,
     cut_marks: bool,
     db_target: str | None,
@@ -50,8 +64,9 @@ def export_cmd(
 ) -> None:
     """Write a print-ready vector PDF tag sheet OUT.pdf in exact physical size.
 
-    Tag size is the side of the black data area. Print at 100 % scale and check the 100 mm
-    ruler on every page.
+    Tag size is the side of the black data area. As many tags as fit go on a page: tags of
+    one polarity share their quiet zones, labels sit outside every quiet zone. Print at
+    100 % scale and check the 100 mm ruler on every page.
     """
     from ottag_db.app.export import TagFilter, export_sheet
     from ottag_db.app.options import sheet_options
@@ -64,6 +79,7 @@ def export_cmd(
         spacing=spacing,
         labels=labels,
         cut_marks=cut_marks,
+        pack=pack,
     )
     flt = TagFilter(ks=ks, min_mp=min_mp, matchable=matchable, ids=ids)
     with open_db(db_target, quiet) as db:
@@ -72,9 +88,10 @@ def export_cmd(
             rep = export_sheet(db, out, flt, options, polarity=polarity, dictionary=dictionary, progress=bar)
         finally:
             bar.close()
+    shared = ", shared quiet zones" if rep.packed else ""
     click.echo(
-        f"{out}: {rep.tags} tags on {rep.pages} page(s), tag size {rep.tag_size_mm:g} mm "
-        f"(quiet zone {rep.quiet_zone_mm:g} mm), {rep.columns}×{rep.rows} per page, {rep.seconds:.1f} s"
+        f"{out}: {rep.tags} tags on {rep.pages} page(s), {rep.per_page} per page ({rep.columns}×{rep.rows}{shared}), "
+        f"tag size {rep.tag_size_mm:g} mm (quiet zone {rep.quiet_zone_mm:g} mm), {rep.seconds:.1f} s"
     )
 
 

@@ -27,6 +27,7 @@ from ottag_db.app.export import (
 from ottag_db.core.canonical import canonical_form
 from ottag_db.core.layout_check import validate_layout
 from ottag_db.core.placement import apply_placements
+from ottag_db.decode import Detection, Detector
 from ottag_db.errors import ExportError, NotFoundError, UsageError
 from ottag_db.printing.geometry import build_tag_geometries
 from ottag_db.printing.sheet import SheetOptions
@@ -243,3 +244,63 @@ def test_render_png_and_svg(db_copy: Path, tmp_path: Path) -> None:
             render_tag(db, "4:0210001221001200", tmp_path / "k4.png")
     finally:
         db.close()
+
+
+def _decode_page(pdf: Path, page_no: int, det: Detector, dpi: float) -> list[tuple[str, str]]:
+    """(λ, polarity) of the tags found on a rasterized page, row by row from the top left."""
+    import pypdfium2 as pdfium
+
+    doc = pdfium.PdfDocument(str(pdf))
+    try:
+        page = doc[page_no]
+        img = page.render(scale=dpi / 72.0, grayscale=True).to_numpy()
+        page.close()
+    finally:
+        doc.close()
+    img = img[:, :, 0] if img.ndim == 3 else img
+    dets = sorted(det.detect(np.ascontiguousarray(img)), key=lambda d: d.center[1])
+    rows: list[list[Detection]] = []
+    for d in dets:  # a new row where the centres jump by more than half a tag
+        if rows and d.center[1] - rows[-1][-1].center[1] < 20 / 25.4 * dpi:
+            rows[-1].append(d)
+        else:
+            rows.append([d])
+    return [(d.lambda_text, d.polarity) for row in rows for d in sorted(row, key=lambda d: d.center[0])]
+
+
+def test_readme_export_packs_twelve_tags_per_a4_page(db_copy: Path, tmp_path: Path) -> None:
+    """The README's set-up export: 3 × 4 tags of 40 mm per A4 page, counted in the report
+    line, and every tag of a packed page (shared quiet zones) decodes at its place, in
+    either polarity."""
+    from click.testing import CliRunner
+
+    from ottag_db.app.detector import detector_from_database
+    from ottag_db.cli import cli
+
+    flt = TagFilter(ks=(8,), min_mp=10.0)
+    db = open_database(db_copy)
+    try:
+        expected = [t.lambda_text for t in select_for_export(db, flt)]
+    finally:
+        db.close()
+    runner = CliRunner()
+    args = ["export", "--db", str(db_copy), "--quiet", "--k", "8", "--min-mp", "10", "--tag-size", "40mm"]
+    out = tmp_path / "tags.pdf"
+    res = runner.invoke(cli, [*args, str(out)])
+    assert res.exit_code == 0, res.output
+    pages = -(-len(expected) // 12)
+    assert f"{len(expected)} tags on {pages} page(s), 12 per page (3×4, shared quiet zones)" in res.stdout
+    assert len(PdfReader(out).pages) == pages
+    det = detector_from_database(str(db_copy))
+    assert _decode_page(out, 0, det, 150) == [(lam, "normal") for lam in expected[:12]]
+    last = (pages - 1) * 12
+    assert _decode_page(out, pages - 1, det, 150) == [(lam, "normal") for lam in expected[last:]]
+    inv = tmp_path / "inverted.pdf"
+    res = runner.invoke(cli, [*args, "--polarity", "inverted", str(inv)])
+    assert res.exit_code == 0 and "12 per page (3×4, shared quiet zones)" in res.stdout
+    assert _decode_page(inv, 0, det, 150) == [(lam, "inverted") for lam in expected[:12]]
+    # the previous layout: whole quiet zones each, 5 mm apart
+    res = runner.invoke(cli, [*args, "--no-pack", "--spacing", "5mm", str(tmp_path / "loose.pdf")])
+    assert res.exit_code == 0 and "shared" not in res.stdout
+    res = runner.invoke(cli, [*args, "--spacing", "-1mm", str(tmp_path / "bad.pdf")])
+    assert res.exit_code == 2 and "-1mm" in res.output

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -21,8 +22,11 @@ from ottag_db.printing.sheet import (
     parse_length,
     parse_page,
     sheet_grid,
+    sheet_layout,
     write_tag_sheet,
 )
+
+pdfium = pytest.importorskip("pypdfium2")
 
 SETS = [
     np.array([(20, 20), (230, 40), (200, 230), (60, 200), (120, 110)]),
@@ -93,8 +97,9 @@ def _squares(rects: list[tuple[float, ...]], side: float) -> list[tuple[float, .
 
 def test_sheet_pages_squares_ruler_labels(tmp_path: Path) -> None:
     options = SheetOptions(tag_size_mm=30.0, page="A4", filter_summary="k = 5 … 8, test selection")
-    cols, rows = sheet_grid(options)
+    cols, rows = sheet_grid(options, _tags(len(_geoms())))  # both polarities: no shared quiet zones
     per_page = cols * rows
+    assert (cols, rows) == sheet_grid(options, _tags(per_page + 3))
     tags = _tags(per_page + 3)
     out = tmp_path / "sheet.pdf"
     seen: list[tuple[int, int]] = []
@@ -161,7 +166,7 @@ def test_output_is_deterministic_and_options_work(tmp_path: Path) -> None:
     reader = PdfReader(plain)
     assert abs(_mm(float(reader.pages[0].mediabox.width)) - 215.9) < TOL_MM
     assert "k=" not in reader.pages[0].extract_text()
-    assert report.columns * report.rows >= 5
+    assert report.columns * report.rows >= 5 and not report.packed  # mixed polarities
     custom = tmp_path / "custom.pdf"
     write_tag_sheet(custom, tags, SheetOptions(page="150x200mm", tag_size_mm=15.0, title="Mine"))
     reader = PdfReader(custom)
@@ -202,6 +207,12 @@ def test_parse_length_and_page() -> None:
     for bad in ("50", "-5mm", "0mm", "5 furlongs", "abc", "", "mm"):
         with pytest.raises(UsageError):
             parse_length(bad)
+    assert parse_length("0mm", allow_zero=True) == 0.0 and parse_length("2cm", allow_zero=True) == 20.0
+    for bad in ("0", "-1mm", "-0.5cm"):
+        with pytest.raises(UsageError):
+            parse_length(bad, allow_zero=True)
+    with pytest.raises(UsageError, match="greater than zero"):
+        parse_length("0mm")
     assert parse_page("A4") == (210.0, 297.0)
     assert parse_page("letter") == (215.9, 279.4)
     assert parse_page("A4-landscape") == (297.0, 210.0)
@@ -221,3 +232,136 @@ def test_many_tags_fill_pages_in_order(tmp_path: Path) -> None:
     report = write_tag_sheet(tmp_path / "big.pdf", tags, SheetOptions(tag_size_mm=40.0))
     assert report.pages == math.ceil(n / report.per_page)
     assert len(PdfReader(tmp_path / "big.pdf").pages) == report.pages
+
+
+def _readme_tags(n: int, polarities: tuple[str, ...]) -> list[SheetTag]:
+    """k = 8 tags labelled like ``export`` labels them (short ID and database id)."""
+    base = _geoms()[6]  # k = 8, normal
+    out = []
+    for i in range(n):
+        geom = base.with_polarity(polarities[i % len(polarities)])  # type: ignore[arg-type]
+        out.append(SheetTag(geom, f"8-{i:08x}", caption=f"#{1490 + i}"))
+    return out
+
+
+def _overlap(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    """Boxes ``(x, y, w, h)`` share interior points."""
+    eps = TOL_MM  # PDF coordinates are written rounded
+    return (
+        a[0] + a[2] > b[0] + eps and b[0] + b[2] > a[0] + eps and a[1] + a[3] > b[1] + eps and b[1] + b[3] > a[1] + eps
+    )
+
+
+def _check_page(pdf: Path, page_no: int, options: SheetOptions, n_tags: int, polarities: list[str]) -> None:
+    """The page's tags: exact data areas and quiet zones, inside the printable area, no ink of
+    anything else (another tag, a label, header, footer) in any tag's quiet zone or data area."""
+    size, quiet = options.tag_size_mm, options.quiet_mm()
+    total = size + 2 * quiet
+    pw, ph = options.page_size_mm()
+    m = options.margin_mm
+    reader = PdfReader(pdf)
+    rects, _ = _page_ops(reader, page_no)
+    data = sorted(_squares(rects, size), key=lambda r: (-round(r[1], 3), r[0]))  # row by row
+    outer = sorted(_squares(rects, total), key=lambda r: (-round(r[1], 3), r[0]))
+    assert len(data) == n_tags and len(outer) == n_tags
+    for d, o in zip(data, outer, strict=True):
+        assert abs(d[2] - size) < TOL_MM and abs(d[3] - size) < TOL_MM
+        assert abs(o[2] - total) < TOL_MM and abs(o[3] - total) < TOL_MM
+        assert abs(d[0] - o[0] - quiet) < TOL_MM and abs(d[1] - o[1] - quiet) < TOL_MM  # centred
+        # inside the printable area (the margins)
+        assert o[0] >= m - TOL_MM and o[0] + o[2] <= pw - m + TOL_MM
+        assert o[1] >= m - TOL_MM and o[1] + o[3] <= ph - m + TOL_MM
+    for i, (o, pol) in enumerate(zip(outer, polarities, strict=True)):
+        for j, (d2, o2) in enumerate(zip(data, outer, strict=True)):
+            if i == j:
+                continue
+            assert not _overlap(o, d2), (i, j)  # another tag's data area never in a quiet zone
+            if pol != polarities[j] or options.cut_marks:
+                assert not _overlap(o, o2), (i, j)  # quiet zones of other tones never overlap
+    # text (labels, header, footer) never inside a tag's quiet zone or data area
+    doc = pdfium.PdfDocument(str(pdf))
+    try:
+        page = doc[page_no]
+        text = page.get_textpage()
+        boxes = [text.get_charbox(c) for c in range(text.count_chars())]
+        assert boxes
+        for left, bottom, right, top in boxes:
+            if right - left < 1e-3:
+                continue  # spaces, line breaks
+            box = (_mm(left), _mm(bottom), _mm(right - left), _mm(top - bottom))
+            assert not any(_overlap(box, o) for o in outer), box
+        # rasterized: every quiet zone is all its own tone (white for normal, black for inverted)
+        dpi = 200.0
+        img = page.render(scale=dpi / 72.0, grayscale=True).to_numpy()
+        text.close()
+        page.close()
+    finally:
+        doc.close()
+    img = img[:, :, 0] if img.ndim == 3 else img
+    px = dpi / 25.4
+    cols = (np.arange(img.shape[1]) + 0.5) / px
+    rows = ph - (np.arange(img.shape[0]) + 0.5) / px  # page mm, y up
+    pad = 1.5 / px
+    for d, o, pol in zip(data, outer, polarities, strict=True):
+        in_x = (cols > o[0] + pad) & (cols < o[0] + o[2] - pad)
+        in_y = (rows > o[1] + pad) & (rows < o[1] + o[3] - pad)
+        out_data_x = (cols < d[0] - pad) | (cols > d[0] + d[2] + pad)
+        out_data_y = (rows < d[1] - pad) | (rows > d[1] + d[3] + pad)
+        ring = in_y[:, None] & in_x[None, :] & (out_data_y[:, None] | out_data_x[None, :])
+        values = img[ring]
+        assert values.size > 0.9 * (total**2 - size**2) * px * px
+        if pol == "normal":
+            assert values.min() >= 250, (pol, d)
+        else:
+            assert values.max() <= 5, (pol, d)
+
+
+@pytest.mark.parametrize(
+    ("polarities", "cut_marks", "packed"),
+    [
+        (("normal",), False, True),
+        (("inverted",), False, True),
+        (("normal", "inverted"), False, False),
+        (("normal",), True, False),
+    ],
+)
+def test_packed_pages_keep_every_quiet_zone_clean(
+    tmp_path: Path, polarities: tuple[str, ...], cut_marks: bool, packed: bool
+) -> None:
+    """README settings (A4, 40 mm, default quiet zone, margins and spacing, labels): ≥ 3 × 4
+    tags per page when the tags share quiet zones, and every page checked for exact sizes,
+    the printable area and quiet zones free of any other ink."""
+    options = SheetOptions(tag_size_mm=40.0, cut_marks=cut_marks)
+    probe = _readme_tags(8, polarities)
+    layout = sheet_layout(options, probe)
+    assert layout.packed == packed
+    n = layout.per_page + 2
+    tags = _readme_tags(n, polarities)
+    out = tmp_path / "packed.pdf"
+    report = write_tag_sheet(out, tags, options)
+    assert report.per_page == layout.per_page and report.packed == packed and report.pages == 2
+    if packed:
+        assert (report.columns, report.rows) == (3, 4)  # the README's sheet: 12 tags per A4 page
+        # neighbours share one quiet zone: data areas exactly one quiet zone apart
+        assert layout.pitch_x == pytest.approx(40.0 + 10.0)
+    for page_no, count in ((0, layout.per_page), (1, 2)):
+        first = page_no * layout.per_page
+        pols = [t.polarity for t in tags[first : first + count]]
+        _check_page(out, page_no, options, count, pols)
+    text = PdfReader(out).pages[0].extract_text()
+    assert "8-00000000" in text and "#1490" in text and "MP" in text
+
+
+def test_packing_without_labels_shares_rows_too(tmp_path: Path) -> None:
+    options = SheetOptions(tag_size_mm=30.0, labels=False, cut_marks=False)
+    tags = _readme_tags(30, ("normal",))
+    layout = sheet_layout(options, tags)
+    assert layout.packed and layout.pitch_x == layout.pitch_y == pytest.approx(37.5)
+    unpacked = sheet_layout(dataclasses.replace(options, pack=False), tags)
+    assert not unpacked.packed and unpacked.pitch_y == pytest.approx(45.0)
+    assert (layout.columns, layout.rows) == (4, 6) and (unpacked.columns, unpacked.rows) == (4, 5)
+    out = tmp_path / "plain.pdf"
+    write_tag_sheet(out, tags, options)
+    _check_page(out, 0, options, layout.per_page, ["normal"] * layout.per_page)
+    # the grid without tags holds any tags (no sharing, two-line labels)
+    assert sheet_grid(SheetOptions(tag_size_mm=40.0)) == (3, 3)
