@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 __all__ = [
+    "BoardError",
+    "CalibrationError",
     "DatabaseError",
     "DecodeError",
     "DictionaryError",
@@ -67,3 +69,11 @@ class DecodeError(OttagError):
 
 class DictionaryError(OttagError):
     """A tag dictionary cannot be created, imported or used as asked."""
+
+
+class BoardError(OttagError):
+    """A calibration-board file is missing, of another format, or inconsistent."""
+
+
+class CalibrationError(OttagError):
+    """A camera cannot be calibrated from the given board and images (too few or degenerate views)."""

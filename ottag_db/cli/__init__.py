@@ -10,6 +10,8 @@ from __future__ import annotations
 import click
 
 import ottag_db
+from ottag_db.cli.board import board_group
+from ottag_db.cli.calibrate import calibrate_cmd
 from ottag_db.cli.common import Group
 from ottag_db.cli.database import db_group, id_cmd, import_cmd, list_cmd, show_cmd, stats_cmd
 from ottag_db.cli.decode import decode_cmd
@@ -40,6 +42,8 @@ for _command in (
     export_cmd,
     render_cmd,
     decode_cmd,
+    board_group,
+    calibrate_cmd,
     dictionary_group,
     db_group,
 ):

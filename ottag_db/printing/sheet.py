@@ -15,7 +15,6 @@ from ottag_db.errors import ExportError, UsageError
 from ottag_db.printing.geometry import TagGeometry, default_quiet_zone
 from ottag_db.printing.output import check_writable
 from ottag_db.printing.pdf import MM_TO_PT
-from ottag_db.printing.sheet_draw import _draw_ruler as _draw_ruler
 from ottag_db.printing.sheet_draw import draw_page_furniture, draw_page_tags, label_texts
 from ottag_db.printing.sheet_layout import RULER_LENGTH_MM, SheetLayout, plan_sheet
 

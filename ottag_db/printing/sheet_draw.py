@@ -15,7 +15,7 @@ from ottag_db.printing.sheet_layout import FOOTER_MM, LEADING, MIN_LABEL_PT, RUL
 if TYPE_CHECKING:
     from ottag_db.printing.sheet import SheetOptions, SheetTag
 
-__all__ = ["draw_page_furniture", "draw_page_tags", "label_texts"]
+__all__ = ["draw_page_furniture", "draw_page_tags", "draw_ruler", "label_texts"]
 
 _MARK_LINE_MM = 0.12
 
@@ -26,8 +26,16 @@ def label_texts(tag: SheetTag, size: float) -> tuple[str, str]:
     return first, f"k={tag.k}  MP {tag.geom.mp_unit * size:.2f} mm  {tag.polarity}"
 
 
-def _draw_ruler(cv: Any, x_mm: float, y_mm: float) -> None:
-    """100 mm ruler: baseline, ticks every mm (5 mm and 10 mm longer), cm numbers."""
+def draw_ruler(cv: Any, x_mm: float, y_mm: float) -> None:
+    """Draw the 100 mm printer-check ruler: baseline, ticks every mm (5 mm and 10 mm longer), cm numbers.
+
+    Parameters
+    ----------
+    cv : reportlab.pdfgen.canvas.Canvas
+        The page to draw on (PDF user space, origin bottom-left).
+    x_mm, y_mm : float
+        Left end of the baseline, mm from the page's bottom-left corner.
+    """
     k = MM_TO_PT
     cv.setStrokeGray(0)
     cv.setLineWidth(0.15 * k)
@@ -75,7 +83,7 @@ def draw_page_furniture(c: Any, options: SheetOptions, grid: SheetLayout, page: 
     )
     c.setFont("Helvetica", 6)
     if grid.footer_mm == FOOTER_MM:  # note beside the ruler
-        _draw_ruler(c, m, m + 1.0)
+        draw_ruler(c, m, m + 1.0)
         c.setFillGray(0)
         x = m + RULER_LENGTH_MM + 8.0
         width = (pw - m - x - 10.0) * k
@@ -85,7 +93,7 @@ def draw_page_furniture(c: Any, options: SheetOptions, grid: SheetLayout, page: 
             c.drawString(x * k, y * k, line)
         c.setFont("Helvetica", 6)
     else:
-        _draw_ruler(c, m, m + 5.0)
+        draw_ruler(c, m, m + 5.0)
         c.setFillGray(0)
         line, lsize = fit_text(" ".join(note), "Helvetica", 6, text_w - 12 * k, 4)
         c.setFont("Helvetica", lsize)
