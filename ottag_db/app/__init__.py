@@ -8,6 +8,8 @@
 - :mod:`~ottag_db.app.decode_batch`, :mod:`~ottag_db.app.decoding` and
   :mod:`~ottag_db.app.video`: decoding image and video files (options, JSON records, pose,
   drawings);
+- :mod:`~ottag_db.app.boards` and :mod:`~ottag_db.app.calibration`: calibration boards and
+  camera calibration from their images;
 - :mod:`~ottag_db.app.dictionary_io`: dictionary exports as files;
 - :mod:`~ottag_db.app.generating`: re-creating the bundled data.
 """
