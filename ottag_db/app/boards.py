@@ -35,7 +35,7 @@ from ottag_db.errors import BoardError, ExportError, GeneralPositionError, Usage
 from ottag_db.printing.board import BoardPlacement, board_page, write_board_pdf
 from ottag_db.printing.sheet import parse_length, parse_page
 from ottag_db.store.db import Database
-from ottag_db.store.dictionaries import get_dictionary
+from ottag_db.store.dictionaries import dictionary_tag_records
 from ottag_db.store.flipgraph import ensure_flip_graph, flip_adjacency, within_flips
 from ottag_db.store.queries import order_type_numbers
 from ottag_db.store.tags import TagRecord, select_tags
@@ -184,16 +184,15 @@ def _default_tags(db: Database, k: int, count: int, progress: ProgressCallback |
 
 def _dictionary_tags(db: Database, name: str, count: int) -> tuple[list[TagRecord], list[str]]:
     """The first ``count`` unique-minimum members of dictionary ``name`` and their polarities."""
-    info = get_dictionary(db, name)
-    usable = [m for m in info.members if m.unique_min and m.k != 4]
+    info, records = dictionary_tag_records(db, name)
+    usable = [(m, t) for m, t in zip(info.members, records, strict=True) if m.unique_min and m.k != 4]
     if len(usable) < count:
         raise ExportError(
             f"dictionary {name} has {len(usable)} tags with unambiguous point labels (unique minimum); "
             f"the board needs {count}: use fewer rows/columns or a larger dictionary"
         )
-    members = usable[:count]
-    records = {t.order_type_id: t for t in select_tags(db, ids=sorted({m.order_type_id for m in members}))}
-    return [records[m.order_type_id] for m in members], [m.polarity for m in members]
+    chosen = usable[:count]  # each member's own realization (the one the decoder verifies against)
+    return [t for _, t in chosen], [m.polarity for m, _ in chosen]
 
 
 def create_board(

@@ -1,8 +1,9 @@
-"""Decoding a batch of image and video files against a database: options, the detector and
-lookups loaded once, then one JSON-ready record per image or video frame.
+"""Decoding a batch of image and video files against a database or a dictionary file: options,
+the detector and lookups loaded once, then one JSON-ready record per image or video frame.
 
-Everything the decoder needs from the database is read in :func:`prepare_decoding`; decoding
-itself (:func:`decode_images`) never touches the database.
+Everything the decoder needs from the database is read in :func:`prepare_decoding` (from a
+dictionary file in :func:`prepare_file_decoding`); decoding itself (:func:`decode_images`)
+never touches the database.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ottag_db.app.decoding import Camera, annotate_detections, decode_array, decode_file, load_camera
+from ottag_db.app.dictionary_io import load_dictionary_file
 from ottag_db.app.video import VIDEO_SUFFIXES, WRITER_SUFFIXES, VideoWriter, input_kind, read_frames
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.errors import DecodeError, UsageError
@@ -29,6 +31,7 @@ __all__ = [
     "decode_inputs",
     "decode_options",
     "prepare_decoding",
+    "prepare_file_decoding",
 ]
 
 #: ``progress(input_path, frames_done, frames_total)`` while a video is read (total 0 when unknown).
@@ -132,6 +135,35 @@ def prepare_decoding(db: Database, dictionary: str | None = None, *, verify: boo
     numbers = order_type_numbers(db)
     near = neighbour_members(db, dictionary) if dictionary else {}
     return DecodeSetup(detector=detector, numbers=numbers, near=near, dictionary=dictionary)
+
+
+def prepare_file_decoding(path: Path, *, verify: bool = True) -> DecodeSetup:
+    """A detector for the tags of a dictionary file alone (``decode --dictionary-file``), no database.
+
+    The file is validated as ``dictionary import`` validates it; every member is verified
+    against exactly the file's points.
+
+    Parameters
+    ----------
+    path : Path
+        A dictionary export (JSON, format ``ottag-dictionary/1``).
+    verify : bool
+        Check each reading geometrically; False decides by order type alone.
+
+    Returns
+    -------
+    DecodeSetup
+        The detector, the universal numbers the file gives (``order_type`` in the output is
+        the order type's position, from 1, among the file's distinct IDs) and no one-flip neighbours.
+
+    Raises
+    ------
+    DictionaryError
+        The file cannot be read or a tag is bad (the message names it).
+    """
+    doc = load_dictionary_file(path)
+    detector = Detector(doc.lookup(), DetectorParams(verify=verify))
+    return DecodeSetup(detector=detector, numbers=doc.universal_numbers(), near={}, dictionary=doc.name)
 
 
 def decode_images(setup: DecodeSetup, images: Iterable[Path], options: DecodeOptions) -> Iterator[dict[str, Any]]:

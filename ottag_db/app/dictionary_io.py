@@ -10,8 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from ottag_db.errors import DictionaryError
+from ottag_db.store.dictionary_files import DictionaryDocument, parse_dictionary
 
-__all__ = ["read_dictionary_file", "write_dictionary_file"]
+__all__ = ["load_dictionary_file", "read_dictionary_file", "write_dictionary_file"]
 
 
 def read_dictionary_file(path: Path) -> str:
@@ -36,6 +37,27 @@ def read_dictionary_file(path: Path) -> str:
         return path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise DictionaryError(f"{path}: cannot read ({exc})") from exc
+
+
+def load_dictionary_file(path: Path) -> DictionaryDocument:
+    """Read and validate a dictionary export (as ``dictionary import`` does), no database needed.
+
+    Parameters
+    ----------
+    path : Path
+        The JSON file (format ``ottag-dictionary/1``).
+
+    Returns
+    -------
+    DictionaryDocument
+        The validated dictionary; its ``lookup()`` is the decoder's lookup.
+
+    Raises
+    ------
+    DictionaryError
+        The file cannot be read, is not an export, or a tag is bad (the message names it).
+    """
+    return parse_dictionary(read_dictionary_file(path), source=str(path))
 
 
 def write_dictionary_file(path: Path, text: str) -> None:

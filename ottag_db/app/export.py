@@ -20,7 +20,7 @@ from ottag_db.printing.raster import render_raster
 from ottag_db.printing.sheet import SheetOptions, SheetReport, SheetTag, write_tag_sheet
 from ottag_db.printing.svg import render_svg
 from ottag_db.store.db import Database
-from ottag_db.store.dictionaries import get_dictionary
+from ottag_db.store.dictionaries import dictionary_tag_records
 from ottag_db.store.tags import TagRecord, select_tags
 
 __all__ = [
@@ -230,15 +230,15 @@ def _export_dictionary_sheet(
     options: SheetOptions,
     progress: ProgressCallback | None,
 ) -> SheetReport:
-    info = get_dictionary(db, name)
+    info, records = dictionary_tag_records(db, name)
     allowed = {t.order_type_id for t in select_tags(db, ks=flt.ks, min_mp=flt.min_mp, matchable=flt.matchable)}
     if flt.ids:
         allowed &= {t.order_type_id for t in select_for_export(db, TagFilter(ids=flt.ids))}
-    members = [m for m in info.members if m.order_type_id in allowed]
-    if not members:
+    chosen = [(m, t) for m, t in zip(info.members, records, strict=True) if m.order_type_id in allowed]
+    if not chosen:
         raise ExportError(f"no tag of dictionary {name} matches the filters ({flt.summary()}); nothing written")
-    tags = {t.order_type_id: t for t in select_tags(db, ids=sorted({m.order_type_id for m in members}))}
-    ordered = [tags[m.order_type_id] for m in members]
+    members = [m for m, _ in chosen]
+    ordered = [t for _, t in chosen]  # each member's own realization (the one the decoder verifies against)
     placed = tag_geometries(ordered, "normal", options.tag_size_mm)
     sheet_tags = [
         SheetTag(

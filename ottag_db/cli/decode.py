@@ -70,6 +70,14 @@ def _print_image(path: str, record: dict[str, Any]) -> None:
     "--dictionary", default=None, metavar="NAME", help="Only this dictionary's tags decode; report tag numbers."
 )
 @click.option(
+    "--dictionary-file",
+    type=click.Path(path_type=Path),
+    default=None,
+    metavar="FILE.json",
+    help="Decode with a dictionary export alone (`dictionary export --format json`), no database; "
+    "report its tag numbers.",
+)
+@click.option(
     "--json",
     "as_json",
     is_flag=True,
@@ -105,6 +113,7 @@ def _print_image(path: str, record: dict[str, Any]) -> None:
 def decode_cmd(
     inputs: tuple[Path, ...],
     dictionary: str | None,
+    dictionary_file: Path | None,
     as_json: bool,
     draw: Path | None,
     every: int,
@@ -119,14 +128,20 @@ def decode_cmd(
     A file OpenCV recognises as an image is decoded as one; any other file is opened as a video
     (MP4, AVI, MKV, … whatever OpenCV's FFmpeg reads) and every (N-th) frame is decoded with the
     same detector. Human-readable output summarises each video: frames, and each tag seen with
-    the frames it was in; --json gives every frame.
+    the frames it was in; --json gives every frame. With --dictionary-file only that file's
+    tags decode, verified against its points, and no database is opened (--db is not used).
     """
-    from ottag_db.app.decode_batch import decode_inputs, decode_options, prepare_decoding
+    from ottag_db.app.decode_batch import decode_inputs, decode_options, prepare_decoding, prepare_file_decoding
     from ottag_db.app.video import VideoTally
 
+    if dictionary_file is not None and dictionary is not None:
+        raise click.UsageError("--dictionary NAME (in the database) and --dictionary-file FILE exclude each other")
     options = decode_options(camera, tag_size, draw, every=every)
-    with open_db(db_target, quiet) as db:
-        setup = prepare_decoding(db, dictionary, verify=not no_verify)
+    if dictionary_file is not None:
+        setup = prepare_file_decoding(dictionary_file, verify=not no_verify)
+    else:
+        with open_db(db_target, quiet) as db:
+            setup = prepare_decoding(db, dictionary, verify=not no_verify)
     bar = _FrameBar(quiet)
     failed: list[str] = []
     tally: VideoTally | None = None

@@ -141,7 +141,12 @@ def dictionary_export(name: str, fmt: str, output: Path | None, db_target: str |
 @db_options
 @quiet_option
 def dictionary_import(file: Path, name: str | None, db_target: str | None, quiet: bool) -> None:
-    """Import a dictionary from its JSON export (its order types must be in the database)."""
+    """Import a dictionary from its JSON export, with its geometry (its order types must be in the database).
+
+    Every tag is checked (points in general position whose order type is its lambda, triangles
+    obeying the layout rules); a bad tag stops the import with one line naming it and nothing is
+    stored. The file's points and triangles become the tags this database prints and verifies.
+    """
     from ottag_db.app.dictionary_io import read_dictionary_file
     from ottag_db.store.dictionary_files import import_dictionary
 

@@ -6,20 +6,22 @@ Files (JSON/CSV) are in :mod:`ottag_db.store.dictionary_files`, decoder lookups 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import func, select
-from sqlalchemy.orm import Session
+import numpy as np
+from sqlalchemy import delete, func, select
+from sqlalchemy.orm import Session, selectinload
 
 from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import DictionaryError, NotFoundError, UsageError
 from ottag_db.store.db import Database
 from ottag_db.store.flipgraph import ensure_flip_graph, flip_adjacency, within_flips
-from ottag_db.store.models import Dictionary, DictionaryTag, OrderType
+from ottag_db.store.models import Dictionary, DictionaryTag, LayoutRow, OrderType, Realization, Source
 from ottag_db.store.tags import TagRecord, select_tags
 
 __all__ = [
@@ -29,6 +31,8 @@ __all__ = [
     "check_dictionary_name",
     "create_dictionary",
     "delete_dictionary",
+    "dictionary_source_name",
+    "dictionary_tag_records",
     "find_dictionary",
     "get_dictionary",
     "list_dictionaries",
@@ -86,6 +90,7 @@ class DictionaryMember:
     triangles: list[list[int]]
     mp: float
     unique_min: bool
+    realization_id: int | None = None
 
     def as_json(self) -> dict[str, Any]:
         """One object of the ``tags`` array of ``dictionary export --format json``."""
@@ -211,7 +216,15 @@ def create_dictionary(
         number = 0
         for t in chosen:
             for p in polarities:
-                s.add(DictionaryTag(dictionary_id=d.id, number=number, order_type_id=t.order_type_id, polarity=p))
+                s.add(
+                    DictionaryTag(
+                        dictionary_id=d.id,
+                        number=number,
+                        order_type_id=t.order_type_id,
+                        polarity=p,
+                        realization_id=t.realization_id,
+                    )
+                )
                 number += 1
     return get_dictionary(db, name)
 
@@ -267,6 +280,118 @@ def find_dictionary(session: Session, name: str) -> Dictionary:
     return d
 
 
+def _tag_record(o: OrderType, r: Realization) -> TagRecord:
+    """The tag of realization ``r`` of order type ``o`` (its layout must be loaded and present)."""
+    lay = r.layout
+    assert lay is not None
+    return TagRecord(
+        order_type_id=o.id,
+        lambda_text=o.lambda_text,
+        k=o.k,
+        mp=float(r.mp),
+        unique_min=bool(o.unique_min),
+        chiral=bool(o.chiral),
+        mirror=o.mirror_lambda_text,
+        realization_id=r.id,
+        points=r.points(),
+        labeling=r.labeling(),
+        triangles=tuple(lay.triangle_list()),
+        placement=np.array(json.loads(lay.placement), dtype=np.float64),
+        printed_mp_unit=float(lay.printed_mp_unit),
+        layout_score=float(lay.score),
+    )
+
+
+def dictionary_source_name(name: str) -> str:
+    """The ``sources.file_name`` of the geometry ``dictionary import`` stored for dictionary ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Dictionary name.
+
+    Returns
+    -------
+    str
+        ``"dictionary:NAME"``; that source goes when the dictionary is deleted.
+    """
+    return f"dictionary:{name}"
+
+
+def dictionary_tag_records(db: Database, name: str) -> tuple[DictionaryInfo, list[TagRecord]]:
+    """A stored dictionary and, per member (number order), the tag it is printed from.
+
+    A member's tag is the realization the dictionary names (chosen by ``dictionary create``,
+    stored by ``dictionary import``) with its stored layout and placement; a member of a
+    dictionary made before database revision 0005 gets its order type's best realization.
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+    name : str
+        Dictionary name.
+
+    Returns
+    -------
+    (DictionaryInfo, list of TagRecord)
+        The dictionary (members with the points and triangles of those tags) and the tags,
+        one per member, with ``TagRecord.tag`` set to the member number.
+
+    Raises
+    ------
+    NotFoundError
+        No dictionary of that name.
+    """
+    with db.session() as s:
+        d = find_dictionary(s, name)
+        rows = [(m.number, m.order_type_id, m.polarity, m.realization_id) for m in d.tags]
+        info_head = (d.name, d.min_flip_distance, json.loads(d.parameters), d.created_at)
+        numbers = dict(
+            s.execute(select(OrderType.id, OrderType.number).where(OrderType.id.in_([r[1] for r in rows]))).all()
+        )
+        pinned_ids = sorted({r[3] for r in rows if r[3] is not None})
+        pinned = {
+            r.id: _tag_record(r.order_type, r)
+            for r in s.execute(
+                select(Realization)
+                .join(LayoutRow, LayoutRow.realization_id == Realization.id)
+                .where(Realization.id.in_(pinned_ids))
+                .options(selectinload(Realization.layout), selectinload(Realization.order_type))
+            ).scalars()
+        }
+    loose = sorted({r[1] for r in rows if r[3] is None or r[3] not in pinned})
+    best = {t.order_type_id: t for t in select_tags(db, ids=loose)} if loose else {}
+    members = []
+    records = []
+    for number, ot_id, polarity, rid in rows:
+        t = pinned[rid] if rid is not None and rid in pinned else best[ot_id]
+        records.append(dataclasses.replace(t, tag=number))
+        members.append(
+            DictionaryMember(
+                number=number,
+                lambda_text=t.lambda_text,
+                k=t.k,
+                polarity=polarity,
+                order_type_id=ot_id,
+                universal_number=numbers.get(ot_id),
+                points=t.points.tolist(),
+                triangles=[list(tri) for tri in t.triangles],
+                mp=t.mp,
+                unique_min=t.unique_min,
+                realization_id=t.realization_id,
+            )
+        )
+    info = DictionaryInfo(
+        name=info_head[0],
+        min_flip_distance=info_head[1],
+        parameters=info_head[2],
+        created_at=info_head[3],
+        members=members,
+    )
+    return info, records
+
+
 def get_dictionary(db: Database, name: str) -> DictionaryInfo:
     """A stored dictionary with every member (points and triangles of its tag realization).
 
@@ -280,49 +405,19 @@ def get_dictionary(db: Database, name: str) -> DictionaryInfo:
     Returns
     -------
     DictionaryInfo
-        Name, parameters and members in number order.
+        Name, parameters and members in number order (see :func:`dictionary_tag_records`
+        for which realization a member has).
 
     Raises
     ------
     NotFoundError
         No dictionary of that name.
     """
-    with db.session() as s:
-        d = find_dictionary(s, name)
-        rows = [(m.number, m.order_type_id, m.polarity) for m in d.tags]
-        info_head = (d.name, d.min_flip_distance, json.loads(d.parameters), d.created_at)
-        numbers = dict(
-            s.execute(select(OrderType.id, OrderType.number).where(OrderType.id.in_([r[1] for r in rows]))).all()
-        )
-    tags = {t.order_type_id: t for t in select_tags(db, ids=sorted({r[1] for r in rows}))}
-    members = []
-    for number, ot_id, polarity in rows:
-        t = tags[ot_id]
-        members.append(
-            DictionaryMember(
-                number=number,
-                lambda_text=t.lambda_text,
-                k=t.k,
-                polarity=polarity,
-                order_type_id=ot_id,
-                universal_number=numbers.get(ot_id),
-                points=t.points.tolist(),
-                triangles=[list(tri) for tri in t.triangles],
-                mp=t.mp,
-                unique_min=t.unique_min,
-            )
-        )
-    return DictionaryInfo(
-        name=info_head[0],
-        min_flip_distance=info_head[1],
-        parameters=info_head[2],
-        created_at=info_head[3],
-        members=members,
-    )
+    return dictionary_tag_records(db, name)[0]
 
 
 def delete_dictionary(db: Database, name: str) -> int:
-    """Delete a dictionary and its members.
+    """Delete a dictionary and its members (and the geometry ``dictionary import`` stored for it).
 
     Parameters
     ----------
@@ -345,4 +440,7 @@ def delete_dictionary(db: Database, name: str) -> int:
         d = find_dictionary(s, name)
         n = len(d.tags)
         s.delete(d)  # members go with it (delete-orphan cascade)
+        s.flush()
+        # The geometry `dictionary import` stored goes too (realizations and layouts cascade).
+        s.execute(delete(Source).where(Source.file_name == dictionary_source_name(name)))
     return n

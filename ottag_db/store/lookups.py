@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -11,10 +12,10 @@ from sqlalchemy import func, select
 from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.errors import NotFoundError
 from ottag_db.store.db import Database
-from ottag_db.store.dictionaries import find_dictionary, get_dictionary
+from ottag_db.store.dictionaries import find_dictionary
 from ottag_db.store.models import DictionaryTag, FlipEdgeRow, OrderType, Realization, coordinates_from_blob
 
-__all__ = ["dictionary_lookup", "load_lookup", "neighbour_members"]
+__all__ = ["MemberGeometry", "dictionary_lookup", "load_lookup", "member_lookup", "neighbour_members"]
 
 
 def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
@@ -52,8 +53,7 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
         if ks:
             rq = rq.join(OrderType, OrderType.id == Realization.order_type_id).where(OrderType.k.in_(list(ks)))
         for ot_id, blob, labeling in s.execute(rq):
-            pts = coordinates_from_blob(blob)[[int(c) for c in labeling]].astype(np.float64)
-            reals.setdefault(ot_id, []).append(pts)
+            reals.setdefault(ot_id, []).append(_canonical_points(blob, labeling))
     entries = [
         LookupEntry(
             lambda_text=text,
@@ -67,8 +67,68 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
     return MemoryLookup(entries)
 
 
+@dataclass(frozen=True)
+class MemberGeometry:
+    """What the decoder needs of one dictionary member: its tag number and polarity, its order
+    type and the realizations it is verified against (``(k, 2)`` float64, rows in canonical
+    label order, grid units, screen convention)."""
+
+    number: int
+    polarity: str
+    lambda_text: str
+    k: int
+    order_type_id: int
+    unique_min: bool
+    realizations: tuple[NDArray[np.float64], ...]
+
+
+def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
+    """Decoder lookup of a dictionary's members (from a database or straight from a file).
+
+    Parameters
+    ----------
+    name : str
+        Dictionary name (reported in ``LookupEntry.extra["dictionary"]``).
+    members : iterable of MemberGeometry
+        The members; two members of one order type (normal and inverted) share an entry.
+
+    Returns
+    -------
+    MemoryLookup
+        One entry per order type: ``tag`` is its lowest member number,
+        ``extra["tags"]`` maps polarity → tag number, ``realizations`` are the members'
+        geometries (identical ones once).
+    """
+    grouped: dict[str, list[MemberGeometry]] = {}
+    for m in members:
+        grouped.setdefault(m.lambda_text, []).append(m)
+    entries = []
+    for text, group in grouped.items():
+        reals: dict[bytes, NDArray[np.float64]] = {}
+        for m in group:
+            for r in m.realizations:
+                reals.setdefault(np.ascontiguousarray(r, dtype=np.float64).tobytes(), r)
+        first = group[0]
+        entries.append(
+            LookupEntry(
+                lambda_text=text,
+                k=first.k,
+                order_type_id=first.order_type_id,
+                unique_min=first.unique_min,
+                realizations=tuple(reals.values()),
+                tag=min(m.number for m in group),
+                extra={"tags": {m.polarity: m.number for m in group}, "dictionary": name},
+            )
+        )
+    return MemoryLookup(entries)
+
+
 def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
     """Decoder lookup: the whole database, or only one dictionary's members (with tag numbers).
+
+    A member verifies against exactly its own geometry (the realization ``dictionary create``
+    chose or ``dictionary import`` stored); a member of a dictionary made before database
+    revision 0005, which names no realization, against every realization of its order type.
 
     Parameters
     ----------
@@ -80,8 +140,9 @@ def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
     Returns
     -------
     MemoryLookup
-        Entries of the members. A member's ``LookupEntry.extra["tags"]`` maps polarity →
-        tag number; ``tag`` is its lowest tag number.
+        Entries of the members (see :func:`member_lookup`). A member's
+        ``LookupEntry.extra["tags"]`` maps polarity → tag number; ``tag`` is its lowest tag
+        number.
 
     Raises
     ------
@@ -90,26 +151,57 @@ def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
     """
     if name is None:
         return load_lookup(db)
-    info = get_dictionary(db, name)
-    full = load_lookup(db, ks=sorted({m.k for m in info.members}))
-    entries: dict[str, LookupEntry] = {}
-    per_pol: dict[str, dict[str, int]] = {}
-    for m in info.members:
-        per_pol.setdefault(m.lambda_text, {})[m.polarity] = m.number
-    for text, pols in per_pol.items():
-        base = full.get(text)
-        if base is None:  # pragma: no cover - members reference stored order types
-            continue
-        entries[text] = LookupEntry(
-            lambda_text=base.lambda_text,
-            k=base.k,
-            order_type_id=base.order_type_id,
-            unique_min=base.unique_min,
-            realizations=base.realizations,
-            tag=min(pols.values()),
-            extra={"tags": dict(pols), "dictionary": name},
+    with db.session() as s:
+        d = find_dictionary(s, name)
+        rows = s.execute(
+            select(
+                DictionaryTag.number,
+                DictionaryTag.polarity,
+                DictionaryTag.realization_id,
+                OrderType.id,
+                OrderType.k,
+                OrderType.lambda_text,
+                OrderType.unique_min,
+            )
+            .join(OrderType, OrderType.id == DictionaryTag.order_type_id)
+            .where(DictionaryTag.dictionary_id == d.id)
+            .order_by(DictionaryTag.number)
+        ).all()
+        pinned = {int(r[2]) for r in rows if r[2] is not None}
+        loose = {int(r[3]) for r in rows if r[2] is None}
+        by_id: dict[int, NDArray[np.float64]] = {}
+        by_type: dict[int, list[NDArray[np.float64]]] = {}
+        rq = select(Realization.id, Realization.order_type_id, Realization.coordinates, Realization.canonical_labeling)
+        for part in _chunks(sorted(pinned)):
+            for rid, _ot, blob, labeling in s.execute(rq.where(Realization.id.in_(part))):
+                by_id[int(rid)] = _canonical_points(blob, labeling)
+        for part in _chunks(sorted(loose)):
+            q = rq.where(Realization.order_type_id.in_(part)).order_by(Realization.mp.desc(), Realization.id)
+            for _rid, ot, blob, labeling in s.execute(q):
+                by_type.setdefault(int(ot), []).append(_canonical_points(blob, labeling))
+    members = [
+        MemberGeometry(
+            number=int(number),
+            polarity=str(polarity),
+            lambda_text=str(text),
+            k=int(k),
+            order_type_id=int(ot_id),
+            unique_min=bool(uniq),
+            realizations=(by_id[int(rid)],) if rid is not None else tuple(by_type.get(int(ot_id), [])),
         )
-    return MemoryLookup(entries.values())
+        for number, polarity, rid, ot_id, k, text, uniq in rows
+    ]
+    return member_lookup(name, members)
+
+
+def _chunks(ids: Sequence[int], size: int = 5000) -> Iterator[Sequence[int]]:
+    for start in range(0, len(ids), size):
+        yield ids[start : start + size]
+
+
+def _canonical_points(blob: bytes, labeling: str) -> NDArray[np.float64]:
+    """A stored realization's points in canonical label order (row ``l`` = label ``l``)."""
+    return coordinates_from_blob(blob)[[int(c) for c in labeling]].astype(np.float64)
 
 
 def neighbour_members(db: Database, name: str) -> dict[str, int]:

@@ -209,7 +209,12 @@ class Dictionary(Base):
 
 
 class DictionaryTag(Base):
-    """Member ``number`` (0 … N−1) of a dictionary: an order type in one polarity."""
+    """Member ``number`` (0 … N−1) of a dictionary: an order type in one polarity.
+
+    ``realization_id`` is the geometry the member is printed from and verified against (set by
+    ``dictionary create`` and ``dictionary import``; NULL in dictionaries made before revision
+    0005, which use the order type's best realization and verify against all of them).
+    """
 
     __tablename__ = "dictionary_tags"
     __table_args__ = (
@@ -221,6 +226,9 @@ class DictionaryTag(Base):
     number: Mapped[int] = mapped_column(Integer, primary_key=True)
     order_type_id: Mapped[int] = mapped_column(ForeignKey("order_types.id", ondelete="CASCADE"))
     polarity: Mapped[str] = mapped_column(String(10))
+    realization_id: Mapped[int | None] = mapped_column(
+        ForeignKey("realizations.id", ondelete="SET NULL"), nullable=True, default=None
+    )
 
     dictionary: Mapped[Dictionary] = relationship(back_populates="tags")
     order_type: Mapped[OrderType] = relationship()

@@ -1,4 +1,4 @@
-"""Tests of ottag_db.app.decode_batch: options, loading once from the database, a batch of images."""
+"""Tests of ottag_db.app.decode_batch: options, loading once (database or dictionary file), a batch of images."""
 
 from __future__ import annotations
 
@@ -8,11 +8,18 @@ from pathlib import Path
 
 import pytest
 
-from ottag_db.app.decode_batch import DecodeOptions, decode_images, decode_options, prepare_decoding
+from ottag_db.app.decode_batch import (
+    DecodeOptions,
+    decode_images,
+    decode_options,
+    prepare_decoding,
+    prepare_file_decoding,
+)
 from ottag_db.app.export import render_tag
-from ottag_db.errors import UsageError
+from ottag_db.errors import DictionaryError, UsageError
 from ottag_db.store.db import Database, open_database
-from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary
+from ottag_db.store.dictionaries import DictionaryOptions, create_dictionary, get_dictionary
+from ottag_db.store.dictionary_files import export_dictionary
 from tests.support.paper import TABLE9
 
 TABLE9_TEXT = "7:" + "".join(str(v) for row in TABLE9 for v in row)
@@ -67,3 +74,19 @@ def test_dictionary_rejections_say_how_near_they_came(db: Database, tag_png: Pat
     (rec,) = decode_images(setup, [tag_png], DecodeOptions())
     assert rec["detections"] == [] and rec["rejected"] >= 1
     assert all("one_flip_from_tag" in r for r in rec["rejections"])
+
+
+def test_a_dictionary_file_decodes_without_a_database(db: Database, tmp_path: Path) -> None:
+    info = get_dictionary(db, "five")
+    member = info.members[0]
+    png = tmp_path / "member.png"
+    render_tag(db, member.lambda_text, png, px=240)  # the best realization: the one "five" pinned
+    file = tmp_path / "five.json"
+    file.write_text(export_dictionary(db, "five"))
+    setup = prepare_file_decoding(file)
+    assert setup.dictionary == "five" and setup.near == {}
+    (rec,) = decode_images(setup, [png], DecodeOptions())
+    (det,) = rec["detections"]
+    assert (det["tag"], det["lambda"], det["number"]) == (member.number, member.lambda_text, member.universal_number)
+    with pytest.raises(DictionaryError, match="cannot read"):
+        prepare_file_decoding(tmp_path / "missing.json")

@@ -7,7 +7,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from sqlalchemy import select
+from sqlalchemy import select, update
 
 from ottag_db.errors import DictionaryError, NotFoundError, OttagError, UsageError
 from ottag_db.files.bundled import bundled_point_files
@@ -22,8 +22,8 @@ from ottag_db.store.dictionaries import (
 from ottag_db.store.dictionary_files import export_dictionary, import_dictionary
 from ottag_db.store.flipgraph import ensure_flip_graph, neighbours
 from ottag_db.store.importer import import_point_file
-from ottag_db.store.lookups import dictionary_lookup, neighbour_members
-from ottag_db.store.models import FlipEdgeRow, OrderType
+from ottag_db.store.lookups import dictionary_lookup, load_lookup, neighbour_members
+from ottag_db.store.models import DictionaryTag, FlipEdgeRow, OrderType
 
 BUNDLED = dict((k, p) for p, k in bundled_point_files())
 
@@ -158,5 +158,31 @@ def test_bad_dictionary_inputs(mdb: Path) -> None:
         with pytest.raises(OttagError, match="diagonal"):
             import_dictionary(db, json.dumps(unknown))
         assert list_dictionaries(db) == []
+    finally:
+        db.close()
+
+
+def test_members_are_pinned_to_one_realization(mdb: Path) -> None:
+    """A created member names its realization; the lookup verifies against it alone; a member of a
+    dictionary made before revision 0005 (no realization) falls back to all of them."""
+    db = open_database(mdb)
+    try:
+        info = create_dictionary(db, "pinned", DictionaryOptions(ks=(6,), min_flip_distance=1, max_size=5))
+        with db.session() as s:
+            rows = s.execute(select(DictionaryTag.number, DictionaryTag.realization_id)).all()
+            assert len(rows) == 5 and all(rid is not None for _, rid in rows)
+            best = {m.number: m.realization_id for m in info.members}
+            assert dict(rows) == best
+        lookup = dictionary_lookup(db, "pinned")
+        assert all(len(e.realizations) == 1 for e in lookup)
+        full = load_lookup(db, ks=[6])
+        with db.session() as s:
+            s.execute(update(DictionaryTag).values(realization_id=None))
+        old = dictionary_lookup(db, "pinned")
+        for e in old:
+            whole = full.get(e.lambda_text)
+            assert whole is not None and len(e.realizations) == len(whole.realizations)
+        again = get_dictionary(db, "pinned")
+        assert [(m.points, m.triangles) for m in again.members] == [(m.points, m.triangles) for m in info.members]
     finally:
         db.close()
