@@ -98,7 +98,7 @@ def first_db(bundled_db_path: Path, tmp_path_factory: pytest.TempPathFactory) ->
 @pytest.fixture(scope="module")
 def exported(first_db: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("json") / "travel.json"
-    result = _run("--db", str(first_db), "dictionary", "export", NAME, "--output", str(out), "--quiet")
+    result = _run("dictionary", "export", NAME, "--output", str(out), "--quiet", "--db", str(first_db))
     assert result.returncode == 0, result.stderr
     return out
 
@@ -151,7 +151,7 @@ def _rasterize(pdf: Path, folder: Path) -> list[Path]:
 def imported_db(second_db: Path, exported: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("imported") / "second.sqlite"
     shutil.copyfile(second_db, path)
-    result = _run("--db", str(path), "dictionary", "import", str(exported), "--quiet")
+    result = _run("dictionary", "import", str(exported), "--quiet", "--db", str(path))
     assert result.returncode == 0, result.stderr
     assert f"imported dictionary {NAME}: 24 tags" in result.stdout
     return path
@@ -317,7 +317,7 @@ def test_bad_files_are_refused_naming_the_tag(
     shutil.copyfile(second_db, db)
     before = dump_database(db)
     for args in (
-        ("--db", str(db), "dictionary", "import", str(bad)),
+        ("dictionary", "import", str(bad), "--db", str(db)),
         ("decode", "--dictionary-file", str(bad), "x.png"),
     ):
         result = _run(*args)
