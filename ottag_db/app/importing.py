@@ -7,9 +7,12 @@ file; a caller runs the plan's jobs in order and reports on each.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import signal
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from types import FrameType
 from typing import TYPE_CHECKING
 
 from ottag_db.files.bundled import bundled_point_files
@@ -17,7 +20,56 @@ from ottag_db.files.bundled import bundled_point_files
 if TYPE_CHECKING:
     from ottag_db.store.importer import ImportReport
 
-__all__ = ["ImportJob", "ImportPlan", "ImportTotals", "import_totals", "plan_import"]
+__all__ = [
+    "ImportInterrupted",
+    "ImportJob",
+    "ImportPlan",
+    "ImportTotals",
+    "import_totals",
+    "interrupts_raise",
+    "plan_import",
+]
+
+
+class ImportInterrupted(BaseException):
+    """SIGINT or SIGTERM arrived during an import; ``signum`` says which.
+
+    A BaseException like :class:`KeyboardInterrupt`, so no ``except Exception`` swallows it;
+    the open transaction rolls back as it propagates.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+    @property
+    def exit_code(self) -> int:
+        """The shell convention for death by this signal: 128 + signal number (130, 143)."""
+        return 128 + self.signum
+
+
+@contextmanager
+def interrupts_raise() -> Iterator[None]:
+    """Within the block, SIGINT and SIGTERM raise :class:`ImportInterrupted`.
+
+    Outside the main thread (where handlers cannot be installed) nothing changes. The
+    previous handlers are restored on exit.
+    """
+
+    def handler(signum: int, _frame: FrameType | None) -> None:
+        raise ImportInterrupted(signum)
+
+    previous: dict[signal.Signals, object] = {}
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, handler)
+    except ValueError:  # not the main thread
+        pass
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)

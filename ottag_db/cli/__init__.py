@@ -12,8 +12,8 @@ import click
 import ottag_db
 from ottag_db.cli.board import board_group
 from ottag_db.cli.calibrate import calibrate_cmd
-from ottag_db.cli.common import Group
-from ottag_db.cli.database import db_group, id_cmd, import_cmd, list_cmd, show_cmd, stats_cmd
+from ottag_db.cli.common import Group, root_options
+from ottag_db.cli.database import db_group, id_cmd, import_cmd, list_cmd, show_cmd, sources_group, stats_cmd
 from ottag_db.cli.decode import decode_cmd
 from ottag_db.cli.dictionary import dictionary_group
 from ottag_db.cli.generate import generate_cmd
@@ -24,7 +24,8 @@ __all__ = ["cli", "main"]
 
 @click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(ottag_db.__version__, prog_name="ottag-db")
-def cli() -> None:
+@root_options
+def cli(db_target: str | None, quiet: bool) -> None:
     """Order Type Tags: order-type database, tag sheets and decoder.
 
     IDs are printed in the text form k:digits (the canonical λ-matrix, row-major,
@@ -46,6 +47,7 @@ for _command in (
     calibrate_cmd,
     dictionary_group,
     db_group,
+    sources_group,
 ):
     cli.add_command(_command)
 

@@ -30,6 +30,7 @@ __all__ = [
     "note",
     "open_db",
     "quiet_option",
+    "root_options",
 ]
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -64,24 +65,56 @@ class Group(click.Group):
             if exc.exit_code == 2:
                 raise CliUsageError(str(exc)) from exc
             raise CliError(str(exc)) from exc
+        except Exception as exc:
+            # A database failure that escaped the command's own handling (see open_db).
+            if "sqlalchemy" not in sys.modules:
+                raise
+            from ottag_db.store.db import as_database_error, is_database_failure
+
+            if not is_database_failure(exc):
+                raise
+            raise CliError(str(as_database_error(exc, ctx.find_root().params.get("db_target")))) from exc
+
+
+def _root_value(ctx: click.Context, name: str) -> Any:
+    root = ctx.find_root()
+    return None if root is ctx else root.params.get(name)
+
+
+def _inherit_db(ctx: click.Context, _param: click.Parameter, value: str | None) -> str | None:
+    return value if value is not None else _root_value(ctx, "db_target")
+
+
+def _inherit_quiet(ctx: click.Context, _param: click.Parameter, value: bool) -> bool:
+    return bool(value or _root_value(ctx, "quiet"))
+
+
+_DB_HELP = "Database file [env OTTAG_DB; default ./ottag.sqlite]; also accepted before the command."
+
+
+def root_options(func: F) -> F:
+    """``--db`` (env ``OTTAG_DB``) and ``--quiet`` on the top-level group, before the command name.
+
+    Every command's own ``--db``/``--quiet`` falls back to these, so ``ottag-db --db X stats``
+    and ``ottag-db stats --db X`` are the same.
+    """
+    func = click.option("--db", "db_target", envvar="OTTAG_DB", default=None, metavar="PATH", help=_DB_HELP)(func)
+    return click.option("--quiet", "-q", is_flag=True, help="No progress bars or notes on stderr.")(func)
 
 
 def db_options(func: F) -> F:
-    """Add ``--db PATH|URL`` (env ``OTTAG_DB``), passed to the command as ``db_target``."""
+    """Add ``--db PATH`` (else the top-level ``--db``, else env ``OTTAG_DB``), passed as ``db_target``."""
     func = click.option(
-        "--db",
-        "db_target",
-        envvar="OTTAG_DB",
-        default=None,
-        metavar="PATH|URL",
-        help="Database file or SQLAlchemy URL [env OTTAG_DB; default ./ottag.sqlite].",
+        "--db", "db_target", default=None, metavar="PATH", callback=_inherit_db, expose_value=True, help=_DB_HELP
     )(func)
     return func
 
 
 def quiet_option(func: F) -> F:
-    """Add ``--quiet``/``-q``, passed to the command as ``quiet``."""
-    return click.option("--quiet", "-q", is_flag=True, help="No progress bars or notes on stderr.")(func)
+    """Add ``--quiet``/``-q`` (also accepted before the command), passed to the command as ``quiet``."""
+    return click.option(
+        "--quiet", "-q", is_flag=True, callback=_inherit_quiet, help="No progress bars or notes on stderr."
+    )(func)
 
 
 def note(msg: str, quiet: bool = False) -> None:
@@ -91,28 +124,38 @@ def note(msg: str, quiet: bool = False) -> None:
 
 
 @contextmanager
-def open_db(target: str | None, quiet: bool = False) -> Iterator[Database]:
+def open_db(target: str | None, quiet: bool = False, *, create: bool = False) -> Iterator[Database]:
     """Open (and migrate) the database for one command; say so on stderr when it was migrated.
+
+    SQLite failures inside the ``with`` block (a corrupt page, a read-only file, a lock held
+    too long) become one-line :class:`~ottag_db.errors.DatabaseError` messages naming the file.
 
     Parameters
     ----------
     target : str or None
-        Database file or SQLAlchemy URL (``--db``); None for the default.
+        Database file (``--db``); None for ``$OTTAG_DB`` or the default.
     quiet : bool
         No note about a migration.
+    create : bool
+        Create a missing database (import, ``db upgrade``); read commands refuse it instead,
+        naming the command that creates one.
 
     Returns
     -------
     Iterator[Database]
         The open database, closed when the ``with`` block ends.
     """
-    from ottag_db.store.db import head_revision, open_database
+    from ottag_db.store.db import as_database_error, head_revision, is_database_failure, open_database
 
-    db = open_database(target)
+    db = open_database(target, create=create)
     if db.backup is not None:
         note(f"migrated {db.path} to revision {head_revision()} (backup: {db.backup})", quiet)
     try:
         yield db
+    except Exception as exc:
+        if is_database_failure(exc):
+            raise as_database_error(exc, db.path or db.url) from exc
+        raise
     finally:
         db.close()
 

@@ -1,20 +1,23 @@
-"""Commands on the order-type database: ``import``, ``stats``, ``show``, ``id``, ``list``, ``db``."""
+"""Commands on the order-type database: ``import``, ``stats``, ``show``, ``id``, ``list``, ``db``, ``sources``."""
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 
-from ottag_db.cli.common import Group, Progress, db_options, note, open_db, quiet_option
+from ottag_db.cli.common import CliUsageError, Group, Progress, db_options, note, open_db, quiet_option
 
 if TYPE_CHECKING:
+    from ottag_db.app.importing import ImportInterrupted, ImportJob
+    from ottag_db.store.db import Database
     from ottag_db.store.importer import ImportReport
     from ottag_db.store.queries import OrderTypeSummary
 
-__all__ = ["db_group", "id_cmd", "import_cmd", "list_cmd", "show_cmd", "stats_cmd"]
+__all__ = ["db_group", "id_cmd", "import_cmd", "list_cmd", "show_cmd", "sources_group", "stats_cmd"]
 
 
 # ----------------------------------------------------------------------------- import
@@ -28,36 +31,55 @@ __all__ = ["db_group", "id_cmd", "import_cmd", "list_cmd", "show_cmd", "stats_cm
     default=None,
     help="Also store the mirror image of every chiral record [default: on for bundled data, off for files].",
 )
+@click.option(
+    "--allow-duplicates",
+    is_flag=True,
+    help="Accept records of the same order type in one file (refused by default: usually a wrong --points).",
+)
 @db_options
 @quiet_option
 def import_cmd(
-    files: tuple[Path, ...], n: int | None, with_mirrors: bool | None, db_target: str | None, quiet: bool
+    files: tuple[Path, ...],
+    n: int | None,
+    with_mirrors: bool | None,
+    allow_duplicates: bool,
+    db_target: str | None,
+    quiet: bool,
 ) -> None:
     """Import point-set files (.b08/.b16) into the database; no FILE imports the bundled data.
 
     Each file is one transaction: a failure leaves the database as it was. Importing a file
-    again is a no-op.
+    again is a no-op. Ctrl-C (or SIGTERM) rolls back the file being imported and says so.
     """
-    from ottag_db.app.importing import import_totals, plan_import
+    from ottag_db.app.importing import ImportInterrupted, import_totals, interrupts_raise, plan_import
+    from ottag_db.files.pointfile import inspect_point_file
     from ottag_db.store.importer import import_point_file
 
     plan = plan_import(files, n, with_mirrors)
-    with open_db(db_target, quiet) as db:
+    for each in plan.jobs:  # names, sizes and formats first: a bad file list creates no database
+        inspect_point_file(each.path, each.points)
+    with open_db(db_target, quiet, create=True) as db:
         reports: list[ImportReport] = []
-        for job in plan.jobs:
-            bar = Progress(f"importing {job.path.name}", quiet)
-            try:
-                r = import_point_file(db, job.path, n=job.points, with_mirrors=plan.with_mirrors, progress=bar)
-            finally:
-                bar.close()
-            reports.append(r)
-            if r.skipped:
-                click.echo(f"{job.path.name}: already imported (sha256 matches), nothing to do")
-            else:
-                click.echo(
-                    f"{job.path.name}: {r.records} records read, {r.new_order_types} new order types, "
-                    f"{r.new_realizations} new realizations ({r.seconds:.2f} s)"
-                )
+        job: ImportJob | None = None
+        try:
+            with interrupts_raise():
+                for job in plan.jobs:
+                    bar = Progress(f"importing {job.path.name}", quiet)
+                    try:
+                        r = import_point_file(
+                            db,
+                            job.path,
+                            n=job.points,
+                            with_mirrors=plan.with_mirrors,
+                            progress=bar,
+                            allow_duplicates=allow_duplicates,
+                        )
+                    finally:
+                        bar.close()
+                    reports.append(r)
+                    _echo_report(r)
+        except ImportInterrupted as exc:
+            _interrupted(db, job, reports, exc)
         if len(reports) > 1:
             t = import_totals(reports)
             click.echo(
@@ -65,6 +87,34 @@ def import_cmd(
                 f"{t.new_realizations} new realizations"
             )
         note(f"database: {db.path or db.url}", quiet)
+
+
+def _echo_report(r: ImportReport) -> None:
+    if r.skipped:
+        click.echo(f"{r.path.name}: already imported (sha256 matches), nothing to do")
+    else:
+        click.echo(
+            f"{r.path.name}: {r.records} records read, {r.new_order_types} new order types, "
+            f"{r.new_realizations} new realizations ({r.seconds:.2f} s)"
+        )
+
+
+def _interrupted(db: Database, job: ImportJob | None, reports: list[ImportReport], exc: ImportInterrupted) -> NoReturn:
+    """Say what an interrupted import left behind, from the database itself, and exit 128 + signal."""
+    from ottag_db.store.importer import is_imported
+
+    done = {r.path for r in reports}
+    if job is not None and job.path not in done:
+        if is_imported(db, job.path):
+            click.echo(f"interrupted ({exc}): {job.path.name} was imported (committed) before the signal", err=True)
+        else:
+            click.echo(f"interrupted ({exc}): {job.path.name} not imported, the database is unchanged", err=True)
+    else:
+        click.echo(f"interrupted ({exc}) after the last file was imported (committed)", err=True)
+    if reports:
+        names = ", ".join(r.path.name for r in reports)
+        click.echo(f"files already committed: {names}", err=True)
+    sys.exit(exc.exit_code)
 
 
 # ----------------------------------------------------------------------------- stats
@@ -156,18 +206,57 @@ def show_cmd(ident: str, as_json: bool, db_target: str | None, quiet: bool) -> N
 
 
 # ----------------------------------------------------------------------------- id
-@click.command("id")
-@click.argument("points")
+def _points_text(points: tuple[str, ...], points_opt: str | None, file: str | None) -> str:
+    given = [bool(points), points_opt is not None, file is not None]
+    if sum(given) != 1:
+        raise CliUsageError(
+            'give the points once: as arguments "x,y x,y ...", with --points TEXT or --file F (- = stdin)'
+        )
+    if points_opt is not None:
+        return points_opt
+    if file is not None or points == ("-",):
+        source = file or "-"
+        if source == "-":
+            return sys.stdin.read()
+        try:
+            return Path(source).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise click.ClickException(f"{source}: cannot read the points ({exc})") from exc
+    return " ".join(points)
+
+
+@click.command("id", context_settings={"ignore_unknown_options": True})
+@click.argument("points", nargs=-1)
+@click.option("--points", "points_opt", metavar="TEXT", default=None, help='The points "x,y x,y ..." as an option.')
+@click.option("--file", "points_file", metavar="F", default=None, help="Read the points from a file (- for stdin).")
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable output (see README).")
 @db_options
 @quiet_option
-def id_cmd(points: str, as_json: bool, db_target: str | None, quiet: bool) -> None:
-    """Canonical ID of an ad-hoc point set "x,y x,y ..." and whether the database has it."""
+def id_cmd(
+    points: tuple[str, ...],
+    points_opt: str | None,
+    points_file: str | None,
+    as_json: bool,
+    db_target: str | None,
+    quiet: bool,
+) -> None:
+    """Canonical ID of an ad-hoc point set "x,y x,y ..." and whether the database has it.
+
+    The points come as arguments, from --points TEXT, from --file F, or from stdin (-);
+    negative coordinates need no "--". Without --db and no ./ottag.sqlite the ID is
+    computed without a database lookup.
+    """
+    from ottag_db.store.db import resolve_database_url
     from ottag_db.store.queries import identify_points, parse_points
 
-    pts = parse_points(points)
-    with open_db(db_target, quiet) as db:
-        res = identify_points(db, pts)
+    pts = parse_points(_points_text(points, points_opt, points_file))
+    _url, path = resolve_database_url(db_target)
+    if db_target is None and path is not None and not path.exists():
+        note(f"no database at {path}: the ID is not looked up (`ottag-db import` creates one)", quiet)
+        res = identify_points(None, pts)
+    else:
+        with open_db(db_target, quiet) as db:
+            res = identify_points(db, pts)
     if as_json:
         click.echo(json.dumps(res.as_json()))
         return
@@ -175,7 +264,8 @@ def id_cmd(points: str, as_json: bool, db_target: str | None, quiet: bool) -> No
     click.echo(f"k           {res.k}")
     click.echo(f"unique min  {'yes' if res.unique_min else 'no'} ({res.minimal_orderings} minimal ordering(s))")
     click.echo(f"hull size   {res.hull_size}")
-    click.echo(f"MP          {res.mp:.3f}")
+    mp = f"{res.mp:.3f}" if res.mp == 0 or 1e-3 <= res.mp < 1e9 else f"{res.mp:.4g}"
+    click.echo(f"MP          {mp} (coordinate units)")
     click.echo(f"labeling    {' '.join(str(v) for v in res.labeling)}")
     click.echo(f"in database {'yes, id ' + str(res.id) if res.in_database else 'no'}")
     if res.number is not None:
@@ -244,5 +334,74 @@ def db_current(db_target: str | None) -> None:
 @quiet_option
 def db_upgrade(db_target: str | None, quiet: bool) -> None:
     """Migrate the database to the newest schema (backing up an older file first)."""
-    with open_db(db_target, quiet) as db:
+    with open_db(db_target, quiet, create=True) as db:
         click.echo(f"at revision {db.current_revision()}")
+
+
+@db_group.command("check")
+@db_options
+@quiet_option
+def db_check(db_target: str | None, quiet: bool) -> None:
+    """Run SQLite's integrity and foreign-key checks; exit 1 when the database is damaged."""
+    from ottag_db.errors import DatabaseError
+    from ottag_db.store.db import as_database_error, check_integrity, is_database_failure, open_database
+
+    db = open_database(db_target, migrate=False, create=False)
+    try:
+        problems = check_integrity(db)
+    except Exception as exc:
+        if is_database_failure(exc):
+            raise as_database_error(exc, db.path or db.url) from exc
+        raise
+    finally:
+        db.close()
+    if problems:
+        for line in problems[:20]:
+            click.echo(line)
+        raise DatabaseError(
+            f"{db.path}: integrity check failed ({len(problems)} problem(s)); restore a backup or rebuild "
+            "it with `ottag-db import --db NEW_FILE`"
+        )
+    click.echo(f"{db.path}: ok")
+
+
+# ----------------------------------------------------------------------------- sources
+@click.group("sources", cls=Group, invoke_without_command=True)
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable output: a JSON array.")
+@db_options
+@quiet_option
+@click.pass_context
+def sources_group(ctx: click.Context, as_json: bool, db_target: str | None, quiet: bool) -> None:
+    """List the imported sources (point files); `sources remove NAME|ID` removes one."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from ottag_db.store.sources import list_sources
+
+    with open_db(db_target, quiet) as db:
+        rows = list_sources(db)
+    if as_json:
+        click.echo(json.dumps([r.as_json() for r in rows]))
+        return
+    click.echo(f"{'id':>4} {'n':>2} {'records':>8} {'realiz.':>8} {'types':>6} {'mirrors':>7}  {'imported':<19}  name")
+    for r in rows:
+        click.echo(
+            f"{r.id:>4} {r.n:>2} {r.records:>8} {r.realizations:>8} {r.order_types:>6} "
+            f"{'yes' if r.mirrors_included else 'no':>7}  {r.imported_at:%Y-%m-%d %H:%M:%S}  {r.name}"
+        )
+    note(f"{len(rows)} source(s)", quiet)
+
+
+@sources_group.command("remove")
+@click.argument("source")
+@db_options
+@quiet_option
+def sources_remove(source: str, db_target: str | None, quiet: bool) -> None:
+    """Remove one source (by name or id) with its realizations and the order types only it had."""
+    from ottag_db.store.sources import remove_source
+
+    with open_db(db_target, quiet) as db:
+        removed = remove_source(db, source)
+    click.echo(
+        f"removed {removed.source.name} (id {removed.source.id}): {removed.realizations} realizations, "
+        f"{removed.order_types} order types"
+    )

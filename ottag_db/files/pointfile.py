@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ottag_db.errors import PointFileError
+from ottag_db.errors import PointFileError, UsageError
 
 __all__ = [
     "OFFICIAL_RECORD_COUNTS",
@@ -41,6 +41,49 @@ _OFFICIAL_NAME = re.compile(r"^otypes(\d{2})\.b(08|16)$")
 # Files written by `ottag-db generate`: n from the name, no official record count.
 _OTTAG_NAME = re.compile(r"^ottag-k(\d{2})\.b(08|16)$")
 _DTYPES: dict[int, np.dtype[Any]] = {8: np.dtype("<u1"), 16: np.dtype("<u2")}
+
+# Signatures of files people mistake for point sets (at least 4 bytes, so a real point file
+# starting with such bytes is very unlikely).
+_FOREIGN_MAGIC: tuple[tuple[bytes, str], ...] = (
+    (b"\x89PNG\r\n\x1a\n", "a PNG image"),
+    (b"\xff\xd8\xff\xe0", "a JPEG image"),
+    (b"\xff\xd8\xff\xe1", "a JPEG image"),
+    (b"\xff\xd8\xff\xdb", "a JPEG image"),
+    (b"\xff\xd8\xff\xee", "a JPEG image"),
+    (b"%PDF-", "a PDF document"),
+    (b"PK\x03\x04", "a ZIP archive"),
+    (b"GIF87a", "a GIF image"),
+    (b"GIF89a", "a GIF image"),
+    (b"II*\x00", "a TIFF image"),
+    (b"MM\x00*", "a TIFF image"),
+    (b"SQLite format 3\x00", "an SQLite database"),
+    (b"\x1f\x8b\x08", "a gzip archive"),
+    (b"BZh9", "a bzip2 archive"),
+    (b"\xfd7zXZ\x00", "an xz archive"),
+    (b"7z\xbc\xaf\x27\x1c", "a 7-Zip archive"),
+    (b"\x7fELF", "an executable"),
+    (b"<?xml", "an XML/SVG document"),
+    (b"<svg", "an SVG image"),
+    (b"<!DOCTYPE", "an HTML page"),
+    (b"<html", "an HTML page"),
+)
+
+
+def _foreign_kind(p: Path) -> str | None:
+    """What kind of file ``p`` is when its first bytes are another format's signature."""
+    try:
+        with p.open("rb") as fh:
+            head = fh.read(16)
+    except OSError as exc:
+        raise PointFileError(f"{p}: cannot read the file ({exc.strerror or exc}); check its permissions") from exc
+    for magic, kind in _FOREIGN_MAGIC:
+        if head.startswith(magic):
+            return kind
+    if head[4:8] == b"ftyp":
+        return "an MP4/MOV video or HEIF image"
+    if head.startswith(b"RIFF"):
+        return "a RIFF file (WAV/AVI/WebP)"
+    return None
 
 
 @dataclass(frozen=True)
@@ -87,7 +130,10 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
     Raises
     ------
     PointFileError
-        Naming the file and the fix (missing, wrong type or size, ``n`` unknown or wrong).
+        Naming the file and the fix (missing, another format such as a PNG or PDF, wrong
+        size, ``n`` unknown).
+    UsageError
+        ``n`` contradicts the point count in an official name (``otypesNN``, ``ottag-kNN``).
     """
     p = Path(path)
     if not p.exists():
@@ -104,6 +150,12 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
             f"{p}: unknown point-set file type {suffix or '(none)'!r}; expected .b08 (uint8) or "
             ".b16 (little-endian uint16)"
         )
+    kind = _foreign_kind(p)
+    if kind is not None:
+        raise PointFileError(
+            f"{p}: not a point-set file (its content is {kind}); expected raw {bits}-bit coordinates "
+            f"as in Aichholzer's otypesNN.b{bits:02d}"
+        )
     match = _OFFICIAL_NAME.match(p.name.lower())
     official = match is not None
     ours = _OTTAG_NAME.match(p.name.lower())
@@ -113,7 +165,10 @@ def inspect_point_file(path: str | os.PathLike[str], n: int | None = None) -> Po
             raise PointFileError(f"{p}: cannot tell the number of points per record from the name; pass --points N")
         n = name_n
     elif name_n is not None and name_n != n:
-        raise PointFileError(f"{p}: the name says {name_n} points per record but --points is {n}")
+        raise UsageError(
+            f"{p}: the name says {name_n} points per record, which is authoritative, but --points is {n}; "
+            "drop --points (or rename the file if it really holds another n)"
+        )
     if not 3 <= n <= 10:
         raise PointFileError(f"{p}: unsupported number of points per record {n} (supported: 3 … 10)")
     size = p.stat().st_size

@@ -30,7 +30,9 @@ from ottag_db.store.layouts import LAYOUT_BATCH, missing_layouts, store_layouts
 from ottag_db.store.models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
 from ottag_db.store.numbering import assign_numbers
 
-__all__ = ["ImportReport", "import_point_file", "import_point_files"]
+__all__ = ["ImportReport", "import_point_file", "import_point_files", "is_imported"]
+
+_HINT = "is --points right?"
 
 # Records per chunk: an n = 10 chunk needs about 16384 × 450 float64 of orientations (60 MB).
 _CHUNK_RECORDS = 16384
@@ -196,6 +198,7 @@ def import_point_file(
     with_mirrors: bool = False,
     progress: ProgressCallback | None = None,
     display_name: str | None = None,
+    allow_duplicates: bool = False,
 ) -> ImportReport:
     """Import one ``.b08``/``.b16`` file in a single transaction.
 
@@ -223,6 +226,9 @@ def import_point_file(
         realizations and their layouts are stored (reported per chunk and per layout batch).
     display_name : str, optional
         Name stored for the source and used in messages (default: the file name).
+    allow_duplicates : bool
+        Accept two records of the same order type (refused by default: Aichholzer's files
+        hold each order type once, so a repeat usually means a wrong ``--points``).
 
     Returns
     -------
@@ -232,15 +238,23 @@ def import_point_file(
     Raises
     ------
     PointFileError
-        Unreadable file, bad size or a record not in general position.
+        Unreadable file, bad size, a record not in general position or (unless
+        ``allow_duplicates``) two records of the same order type.
+    DatabaseError
+        The database is read-only, corrupt or locked (raised by the caller's error handling).
     """
     start = time.perf_counter()
     info = inspect_point_file(path, n)
     name = display_name or info.path.name
     digest = file_sha256(info.path)
     max_coordinate = (1 << info.bits) - 1
-    with db.engine.begin() as conn:
+    with db.write() as conn:
         src = conn.execute(select(Source).where(Source.sha256 == digest)).first()
+        if src is not None and src.n != info.n:
+            raise PointFileError(
+                f"{name}: this content was imported as {src.n}-point records ({src.file_name}); {_HINT} "
+                f"(`ottag-db sources remove {src.file_name}` first to import it as {info.n}-point records)"
+            )
         if src is not None and (src.mirrors_included or not with_mirrors):
             return ImportReport(info.path, info.n, info.records, 0, 0, True, time.perf_counter() - start, with_mirrors)
         before = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()
@@ -269,13 +283,52 @@ def import_point_file(
             record = exc.record if exc.record is not None else 0
             raise PointFileError(
                 f"{name}: record {record} (byte offset {record * info.record_size}): "
-                f"{str(exc).split(': ', 1)[-1]}; every point set must be in general position — fix or drop that record"
+                f"{str(exc).split(': ', 1)[-1]}; every point set must be in general position — "
+                f"{_HINT if not info.official else 'fix or drop that record'}"
             ) from exc
+        if not allow_duplicates and not only_mirrors:
+            _check_distinct(conn, int(source_id), name, info)
         after = conn.execute(select(func.count()).select_from(OrderType)).scalar_one()
         assign_numbers(conn)
     return ImportReport(
         info.path, info.n, info.records, int(after - before), added, False, time.perf_counter() - start, with_mirrors
     )
+
+
+def _check_distinct(conn: Connection, source_id: int, name: str, info: PointFileInfo) -> None:
+    """Refuse a file with two records of one order type, naming the first repeat."""
+    row = conn.exec_driver_sql(
+        "SELECT record_index, first FROM (SELECT record_index, "
+        "MIN(record_index) OVER (PARTITION BY order_type_id) AS first FROM realizations "
+        "WHERE source_id = ? AND mirrored = 0) WHERE record_index > first ORDER BY record_index LIMIT 1",
+        (source_id,),
+    ).first()
+    if row is not None:
+        later, first = int(row[0]), int(row[1])
+        raise PointFileError(
+            f"{name}: records {first} and {later} have the same order type ({info.n} points per record); "
+            f"a point-set file holds each order type once — {_HINT} (--allow-duplicates imports it anyway)"
+        )
+
+
+def is_imported(db: Database, path: str | os.PathLike[str]) -> bool:
+    """Whether a file with this content (SHA-256) is recorded as a source.
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+    path : str or PathLike
+        The point-set file.
+
+    Returns
+    -------
+    bool
+        True once the file's import has been committed.
+    """
+    digest = file_sha256(path)
+    with db.engine.connect() as conn:
+        return conn.execute(select(Source.id).where(Source.sha256 == digest)).first() is not None
 
 
 def _import_chunks(

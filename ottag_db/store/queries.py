@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -391,18 +392,21 @@ def parse_points(text: str) -> NDArray[np.float64]:
     Raises
     ------
     UsageError
-        An unreadable point or a count outside 3 … 10.
+        An unreadable or non-finite point (nan, inf, 1e400) or a count outside 3 … 10.
     """
     parts = [p for p in text.replace(";", " ").split() if p]
-    pts = []
+    pts: list[list[float]] = []
     for p in parts:
         xy = p.split(",")
         if len(xy) != 2:
             raise UsageError(f"cannot read point {p!r}: write points as x,y separated by spaces")
         try:
-            pts.append([float(xy[0]), float(xy[1])])
+            xy_f = [float(xy[0]), float(xy[1])]
         except ValueError as exc:
             raise UsageError(f"cannot read point {p!r}: coordinates must be numbers") from exc
+        if not all(math.isfinite(v) for v in xy_f):
+            raise UsageError(f"point {len(pts)} ({p}): coordinates must be finite numbers (no nan/inf, |v| < 1.8e308)")
+        pts.append(xy_f)
     if not 3 <= len(pts) <= 10:
         raise UsageError(f"a point set needs 3 to 10 points, got {len(pts)}")
     return np.array(pts, dtype=np.float64)
@@ -427,12 +431,27 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
     ------
     GeneralPositionError
         Three points are collinear (or two coincide).
+    UsageError
+        Non-finite coordinates, or coordinates so far apart that their differences overflow.
+
+    Notes
+    -----
+    The set is moved and scaled to a unit box first (the order type does not change), so tiny
+    (1e-300) and huge (1e300) coordinates work; MP is given in the input's units.
     """
-    pts = np.asarray(points, dtype=np.float64)
+    raw = np.asarray(points, dtype=np.float64)
+    if not np.isfinite(raw).all():
+        raise UsageError("coordinates must be finite numbers (no nan or inf)")
+    with np.errstate(over="ignore"):
+        span = raw.max(axis=0) - (lo := raw.min(axis=0))
+    if not np.isfinite(span).all():
+        raise UsageError("the coordinates are too far apart (their differences overflow); scale the points down")
+    scale = float(span.max())
+    pts = (raw - lo) / scale if scale > 0 else raw
     try:
         check_general_position(pts)
     except GeneralPositionError as exc:
-        raise GeneralPositionError(str(exc).replace("record 0: ", ""), points=exc.points) from exc
+        raise GeneralPositionError(_unscaled(str(exc)[10:], raw, exc.points), points=exc.points) from exc
     form = canonical_form(pts)
     found: int | None = None
     number: int | None = None
@@ -449,12 +468,18 @@ def identify_points(db: Database | None, points: ArrayLike) -> IdResult:
         unique_min=form.unique_min,
         minimal_orderings=form.minimal_orderings,
         hull_size=form.hull_size,
-        mp=maximal_perturbation(pts),
+        mp=maximal_perturbation(pts) * (scale if scale > 0 else 1.0),
         labeling=form.labeling,
         in_database=found is not None,
         id=found,
         number=number,
     )
+
+
+def _unscaled(message: str, raw: NDArray[np.float64], indices: tuple[int, ...]) -> str:
+    """The general-position message with the input's own coordinates, not the scaled ones."""
+    shown = " ".join(f"{raw[i, 0]:g},{raw[i, 1]:g}" for i in indices)
+    return f"{message.split(' (', 1)[0]}: {shown}" if indices else message
 
 
 def order_type_numbers(db: Database) -> dict[int, int | None]:

@@ -106,7 +106,9 @@ def test_stats_table_shows_paper_beside(runner: CliRunner, bdb: Path) -> None:
     assert "paper8" in res.stdout
     line = next(x for x in lines if x.startswith("6.0"))
     assert line.split()[-4:] == ["3", "16", "15", "15"]  # the paper's Table 7 at v = 6.0
-    empty = runner.invoke(cli, ["stats", "--db", str(bdb.parent / "empty.sqlite")])
+    empty_db = bdb.parent / "empty.sqlite"
+    assert runner.invoke(cli, ["db", "upgrade", "--db", str(empty_db)]).exit_code == 0
+    empty = runner.invoke(cli, ["stats", "--db", str(empty_db)])
     assert empty.exit_code == 0 and empty.stdout == ""
     assert "holds no order types yet" in empty.stderr
 
@@ -240,12 +242,19 @@ def test_bad_inputs_leave_database_unchanged(runner: CliRunner, bdb: Path, tmp_p
 def test_second_file_failure_keeps_the_first(runner: CliRunner, tmp_path: Path) -> None:
     db = tmp_path / "two.sqlite"
     bad = tmp_path / "bad.b08"
-    bad.write_bytes(b"\x00" * 7)
+    bad.write_bytes(b"\x00" * 10)  # a readable file whose record is not in general position
     res = runner.invoke(cli, ["import", "--db", str(db), "-q", "--points", "5", str(_bundled(5)), str(bad)])
     assert res.exit_code == 1
     assert res.stdout.startswith("ottag-k05.b08: 3 records read")
     stats = _stats(runner, db)
     assert stats == {"5": stats["5"]} and stats["5"]["order_types"] == 3
+    # A file list with an unreadable name or size is refused before anything is imported.
+    (tmp_path / "odd.b08").write_bytes(b"\x00" * 7)
+    other = tmp_path / "other.sqlite"
+    res = runner.invoke(
+        cli, ["import", "--db", str(other), "--points", "5", str(_bundled(5)), str(tmp_path / "odd.b08")]
+    )
+    assert res.exit_code == 1 and "not a multiple of the record size" in res.stderr and not other.exists()
 
 
 def test_corrupt_database(runner: CliRunner, tmp_path: Path) -> None:
@@ -269,3 +278,122 @@ def test_usage_errors_exit_2_without_traceback(runner: CliRunner, bdb: Path) -> 
 def test_module_entry_point() -> None:
     out = subprocess.run([sys.executable, "-m", "ottag_db", "--version"], capture_output=True, text=True, check=True)
     assert out.stdout == "ottag-db, version 0.1.0\n"
+
+
+# ----------------------------------------------------------------------------- issue 11
+def test_db_and_quiet_before_or_after_the_command(runner: CliRunner, tmp_path: Path) -> None:
+    db = tmp_path / "before.sqlite"
+    res = runner.invoke(cli, ["--db", str(db), "--quiet", "import", str(_bundled(5))])
+    assert res.exit_code == 0, res.output
+    assert res.stdout.startswith("ottag-k05.b08: 3 records read") and res.stderr == ""
+    assert _stats(runner, db)["5"]["order_types"] == 3
+    after = runner.invoke(cli, ["stats", "--json", "--db", str(db)])
+    before = runner.invoke(cli, ["--db", str(db), "stats", "--json"])
+    assert before.exit_code == 0 and before.stdout == after.stdout
+    # The command's own --db wins over the one before it.
+    res = runner.invoke(cli, ["--db", str(tmp_path / "other.sqlite"), "stats", "--json", "--db", str(db)])
+    assert res.exit_code == 0 and res.stdout == after.stdout
+
+
+def test_read_commands_refuse_a_missing_database(
+    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    missing = tmp_path / "nothing.sqlite"
+    for args in (
+        ["stats"],
+        ["list"],
+        ["show", "1"],
+        ["export", "--k", "6", str(tmp_path / "t.pdf")],
+        ["render", "1", str(tmp_path / "t.png")],
+        ["dictionary", "list"],
+        ["sources"],
+        ["db", "check"],
+    ):
+        res = runner.invoke(cli, ["--db", str(missing), *args])
+        assert res.exit_code == 1, (args, res.output)
+        assert f"create one with `ottag-db import --db {missing}`" in res.stderr
+        assert len(res.stderr.splitlines()) == 1
+        assert not missing.exists()
+    monkeypatch.chdir(tmp_path)
+    res = runner.invoke(cli, ["stats"], env={"OTTAG_DB": None})
+    assert res.exit_code == 1 and not (tmp_path / "ottag.sqlite").exists()
+
+
+def test_id_inputs_and_numbers(runner: CliRunner, bdb: Path, tmp_path: Path) -> None:
+    base = json.loads(runner.invoke(cli, ["id", "--db", str(bdb), "--json", "0,0 4,0 1,3 3,3"]).stdout)
+    # Negative numbers need no "--", as an argument, from --points, a file or stdin.
+    shifted = "-5,-5 -1,-5 -4,-2 -2,-2"
+    (tmp_path / "pts.txt").write_text(shifted + "\n")
+    for args, stdin in (
+        ([shifted], None),
+        (shifted.split(), None),
+        (["--points", shifted], None),
+        (["--file", str(tmp_path / "pts.txt")], None),
+        (["-"], shifted),
+    ):
+        res = runner.invoke(cli, ["id", "--db", str(bdb), "--json", *args], input=stdin)
+        assert res.exit_code == 0, (args, res.output)
+        got = json.loads(res.stdout)
+        assert (got["lambda"], got["id"], got["mp"]) == (base["lambda"], base["id"], base["mp"])
+    # Scale-free: tiny and huge coordinates give the same ID, MP in the input's units, no warning.
+    for scale in (1e-300, 1e300):
+        pts = " ".join(f"{x * scale},{y * scale}" for x, y in ((0, 0), (4, 0), (1, 3), (3, 3)))
+        res = runner.invoke(cli, ["id", "--db", str(bdb), "--json", pts])
+        assert res.exit_code == 0 and res.stderr == "", res.output
+        got = json.loads(res.stdout)
+        assert got["lambda"] == base["lambda"] and got["mp"] == pytest.approx(base["mp"] * scale, rel=1e-9)
+    res = runner.invoke(cli, ["id", "--db", str(bdb), "0,0 1e-300,0 0,1e-300"])
+    assert res.exit_code == 0 and "lambda      3:" in res.stdout
+    for pts, code, message in (
+        ("nan,0 1,1 0,1", 2, "point 0 (nan,0): coordinates must be finite numbers"),
+        ("0,0 inf,1 0,1", 2, "point 1 (inf,1): coordinates must be finite numbers"),
+        ("0,0 1e400,1 0,1", 2, "coordinates must be finite numbers"),
+        ("-1e308,0 1e308,0 0,1", 2, "too far apart"),
+        ("0,0 1e-300,1e-300 2e-300,2e-300", 1, "points 0, 1 and 2 are collinear: 0,0 1e-300,1e-300 2e-300,2e-300"),
+    ):
+        res = runner.invoke(cli, ["id", "--db", str(bdb), pts])
+        assert res.exit_code == code, (pts, res.output)
+        assert res.stderr.startswith("error: ") and message in res.stderr and len(res.stderr.splitlines()) == 1
+    res = runner.invoke(cli, ["id", "--db", str(bdb), "0,0 1,0 0,1", "--points", "0,0 1,0 0,1"])
+    assert res.exit_code == 2 and "give the points once" in res.stderr
+
+
+def test_id_without_a_database_still_identifies(
+    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    res = runner.invoke(cli, ["id", "--json", "0,0 4,0 1,3"], env={"OTTAG_DB": None})
+    assert res.exit_code == 0 and json.loads(res.stdout)["in_database"] is False
+    assert "the ID is not looked up" in res.stderr and not (tmp_path / "ottag.sqlite").exists()
+
+
+def test_point_file_checks(runner: CliRunner, bdb: Path, tmp_path: Path) -> None:
+    official = tmp_path / "otypes07.b08"
+    official.write_bytes(_bundled(7).read_bytes())
+    _assert_fails_unchanged(
+        runner, bdb, ["--points", "5", str(official)], 2, "the name says 7 points per record, which is authoritative"
+    )
+    renamed = tmp_path / "seven.b08"
+    renamed.write_bytes(_bundled(7).read_bytes())
+    fresh = tmp_path / "fresh.sqlite"
+    assert runner.invoke(cli, ["import", "--db", str(fresh), "-q", str(_bundled(5))]).exit_code == 0
+    for n in ("5", "9"):
+        _assert_fails_unchanged(runner, fresh, ["--points", n, str(renamed)], 1, "is --points right?")
+    # The same bytes already imported with another n: refused, naming the source to remove.
+    _assert_fails_unchanged(runner, bdb, ["--points", "5", str(renamed)], 1, "imported as 7-point records")
+    png = tmp_path / "photo.b08"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(200))
+    _assert_fails_unchanged(runner, bdb, ["--points", "5", str(png)], 1, "not a point-set file (its content is a PNG")
+    twice = tmp_path / "twice.b08"
+    twice.write_bytes(_bundled(6).read_bytes() * 2)
+    _assert_fails_unchanged(runner, bdb, ["--points", "6", str(twice)], 1, "records 0 and 16 have the same order type")
+    res = runner.invoke(cli, ["import", "--db", str(bdb), "-q", "--points", "6", "--allow-duplicates", str(twice)])
+    assert res.exit_code == 0 and "32 records read, 0 new order types, 32 new realizations" in res.stdout
+
+
+def test_db_check_and_server_urls(runner: CliRunner, bdb: Path) -> None:
+    res = runner.invoke(cli, ["db", "check", "--db", str(bdb)])
+    assert res.exit_code == 0 and res.stdout == f"{bdb}: ok\n"
+    res = runner.invoke(cli, ["stats", "--db", "postgresql://u:pw@localhost/ottag"])
+    assert res.exit_code == 1 and "only SQLite databases are supported (got postgresql)" in res.stderr
+    assert "pw" not in res.stderr

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ottag_db.errors import PointFileError
+from ottag_db.errors import PointFileError, UsageError
 from ottag_db.files.bundled import bundled_point_files
 from ottag_db.files.pointfile import (
     OFFICIAL_RECORD_COUNTS,
@@ -80,7 +80,6 @@ def test_sha256(tmp_path: Path) -> None:
         ("noname.b08", b"\x00" * 12, None, "pass --points N"),
         ("wrong.txt", b"\x00" * 12, 3, "unknown point-set file type"),
         ("otypes05.b08", b"\x00" * 20, None, "holds 2 records but the official file for n = 5 has 3"),
-        ("otypes05.b08", b"\x00" * 30, 6, "the name says 5 points per record but --points is 6"),
         ("many.b08", b"\x00" * 22, 11, "unsupported number of points"),
     ],
 )
@@ -103,3 +102,30 @@ def test_missing_file_and_directory(tmp_path: Path) -> None:
 def test_write_rejects_out_of_range(tmp_path: Path) -> None:
     with pytest.raises(PointFileError, match="0 … 255"):
         write_point_file(tmp_path / "x.b08", np.array([[[0, 0], [300, 1], [2, 5]]]))
+
+
+def test_the_official_name_is_authoritative(tmp_path: Path) -> None:
+    p = tmp_path / "otypes05.b08"
+    p.write_bytes(b"\x00" * 30)
+    with pytest.raises(
+        UsageError, match="the name says 5 points per record, which is authoritative, but --points is 6"
+    ):
+        inspect_point_file(p, 6)
+    with pytest.raises(UsageError, match="the name says 7"):
+        inspect_point_file(next(path for path, k in bundled_point_files() if k == 7), 5)
+
+
+@pytest.mark.parametrize(
+    ("head", "kind"),
+    [
+        (b"\x89PNG\r\n\x1a\n", "a PNG image"),
+        (b"\xff\xd8\xff\xe0\x00\x10JFIF", "a JPEG image"),
+        (b"%PDF-1.7\n", "a PDF document"),
+        (b"PK\x03\x04", "a ZIP archive"),
+    ],
+)
+def test_other_formats_are_not_point_files(tmp_path: Path, head: bytes, kind: str) -> None:
+    p = tmp_path / "otypes03.b08"
+    p.write_bytes(head + b"\x00" * (60 - len(head)))
+    with pytest.raises(PointFileError, match=f"not a point-set file \\(its content is {kind}\\)"):
+        inspect_point_file(p)

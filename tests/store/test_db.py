@@ -12,7 +12,15 @@ from sqlalchemy import text
 from sqlalchemy.exc import OperationalError
 
 from ottag_db.errors import DatabaseError
-from ottag_db.store.db import _alembic_config, head_revision, open_database, resolve_database_url
+from ottag_db.store.db import (
+    _alembic_config,
+    as_database_error,
+    busy_timeout_seconds,
+    check_integrity,
+    head_revision,
+    open_database,
+    resolve_database_url,
+)
 
 
 def test_new_database_is_at_head_with_wal_and_foreign_keys(tmp_path: Path) -> None:
@@ -137,3 +145,69 @@ def test_read_only_uri_resolves_to_the_file_and_opens_without_writing(bundled_db
     finally:
         db.close()
     assert path.read_bytes() == before
+
+
+def test_server_urls_are_refused_with_a_clear_message(tmp_path: Path) -> None:
+    with pytest.raises(DatabaseError, match=r"only SQLite databases are supported \(got postgresql\)"):
+        open_database("postgresql://user:secret@localhost/ottag")
+    with pytest.raises(DatabaseError) as err:
+        open_database("postgresql://user:secret@localhost/ottag")
+    assert "secret" not in str(err.value)
+
+
+def test_a_missing_file_is_refused_unless_created(tmp_path: Path) -> None:
+    path = tmp_path / "missing.sqlite"
+    with pytest.raises(DatabaseError, match=r"no database here; create one with `ottag-db import --db"):
+        open_database(path, create=False)
+    assert not path.exists()
+    open_database(path).close()
+    open_database(path, create=False).close()
+
+
+def test_database_failures_are_explained(tmp_path: Path) -> None:
+    cases = {
+        "database disk image is malformed": "corrupt",
+        "attempt to write a readonly database": "cannot write",
+        "unable to open database file": "folder",
+        "database is locked": "locked by another process",
+    }
+    for message, expected in cases.items():
+        err = as_database_error(sqlite3.OperationalError(message), tmp_path / "x.sqlite")
+        assert expected in str(err) and str(tmp_path / "x.sqlite") in str(err) and "\n" not in str(err)
+
+
+def test_busy_timeout_comes_from_the_environment(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("OTTAG_DB_TIMEOUT", "2.5")
+    assert busy_timeout_seconds() == 2.5
+    db = open_database(tmp_path / "t.sqlite")
+    try:
+        with db.engine.connect() as conn:
+            assert conn.exec_driver_sql("PRAGMA busy_timeout").scalar() == 2500
+    finally:
+        db.close()
+    monkeypatch.setenv("OTTAG_DB_TIMEOUT", "soon")
+    assert busy_timeout_seconds() == 60.0
+
+
+def test_check_integrity_on_an_intact_database(tmp_path: Path) -> None:
+    db = open_database(tmp_path / "ok.sqlite")
+    try:
+        assert check_integrity(db) == []
+    finally:
+        db.close()
+
+
+def test_concurrent_first_use_from_threads(tmp_path: Path) -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    path = tmp_path / "race.sqlite"
+
+    def open_close(_: int) -> str | None:
+        db = open_database(path)
+        try:
+            return db.current_revision()
+        finally:
+            db.close()
+
+    with ThreadPoolExecutor(4) as pool:
+        assert set(pool.map(open_close, range(4))) == {head_revision()}

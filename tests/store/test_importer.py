@@ -18,7 +18,13 @@ from ottag_db.errors import PointFileError
 from ottag_db.files.bundled import bundled_point_files
 from ottag_db.files.pointfile import write_point_file
 from ottag_db.store.db import open_database
-from ottag_db.store.importer import _analyse, _upsert_generic, _upsert_order_types, import_point_file
+from ottag_db.store.importer import (
+    _analyse,
+    _upsert_generic,
+    _upsert_order_types,
+    import_point_file,
+    is_imported,
+)
 from ottag_db.store.models import LayoutRow, OrderType, Realization, Source
 from ottag_db.store.queries import database_stats
 from tests.support.database import dump_database
@@ -176,3 +182,36 @@ def test_reference_files_reproduce_the_paper(reference_db_path: Path) -> None:
     }
     for k, column in table7.items():
         assert list(stats[k].mp_at_least.values()) == column
+
+
+def test_repeated_order_types_are_refused_unless_allowed(tmp_path: Path, bundled_sets: dict[int, np.ndarray]) -> None:
+    pts = np.concatenate([bundled_sets[6], bundled_sets[6][:3]])  # records 16, 17, 18 repeat 0, 1, 2
+    dup = tmp_path / "dup.b08"
+    write_point_file(dup, pts)
+    path = tmp_path / "d.sqlite"
+    db = open_database(path)
+    try:
+        before = dump_database(path)
+        with pytest.raises(
+            PointFileError, match=r"dup.b08: records 0 and 16 have the same order type.*is --points right"
+        ):
+            import_point_file(db, dup, n=6)
+        assert dump_database(path) == before and not is_imported(db, dup)
+        rep = import_point_file(db, dup, n=6, allow_duplicates=True)
+        assert (rep.records, rep.new_order_types, rep.new_realizations) == (19, 16, 19)
+        assert is_imported(db, dup)
+    finally:
+        db.close()
+
+
+def test_a_wrong_points_value_is_caught(tmp_path: Path) -> None:
+    seven = tmp_path / "seven.b08"  # 135 × 7 points = 189 × 5 = 105 × 9: the sizes divide
+    seven.write_bytes(_bundled(7).read_bytes())
+    db = open_database(tmp_path / "w.sqlite")
+    try:
+        for n in (5, 9):
+            with pytest.raises(PointFileError, match=r"seven.b08: record.*is --points right\?"):
+                import_point_file(db, seven, n=n)
+        assert import_point_file(db, seven, n=7).new_order_types == 135
+    finally:
+        db.close()
