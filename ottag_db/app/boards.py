@@ -6,12 +6,13 @@ The board file (format ``ottag-board/1``) holds everything calibration needs, so
     {"format": "ottag-board/1", "tag_size_mm", "spacing_mm", "rows", "cols", "k",
      "page_mm": [w, h], "page_origin_mm": [x, y], "dictionary": name | null,
      "tags": [{"row", "col", "lambda", "number", "polarity", "corners_mm": 4×[x, y],
-               "points_mm": k×[x, y]}]}
+               "points_mm": k×[x, y], "triangles": [[a, b, c], …]}]}
 
 Board coordinates are mm, origin at the top-left corner of the first tag's data area, x right,
 y down, z = 0. ``corners_mm``: data-area corners top-left, top-right, bottom-right,
 bottom-left; ``points_mm``: the tag's points in canonical label order (the order ``decode``
-reports). ``number`` is the universal number (null when not numbered); ``page_origin_mm``
+reports); ``triangles``: the printed triangles as label triples (optional; calibration fits the
+printed edges with them). ``number`` is the universal number (null when not numbered); ``page_origin_mm``
 the board origin on the printed page (from the page's top-left corner).
 """
 
@@ -68,6 +69,7 @@ class BoardTag:
     polarity: str
     corners_mm: tuple[tuple[float, float], ...]
     points_mm: tuple[tuple[float, float], ...]
+    triangles: tuple[tuple[int, int, int], ...] = ()
 
     @property
     def k(self) -> int:
@@ -84,6 +86,7 @@ class BoardTag:
             "polarity": self.polarity,
             "corners_mm": [[round(x, 6), round(y, 6)] for x, y in self.corners_mm],
             "points_mm": [[round(x, 6), round(y, 6)] for x, y in self.points_mm],
+            "triangles": [list(t) for t in self.triangles],
         }
 
 
@@ -277,6 +280,7 @@ def create_board(
         s = tag_size_mm
         corners = ((x0, y0), (x0 + s, y0), (x0 + s, y0 + s), (x0, y0 + s))
         number = numbers.get(rec.order_type_id)
+        label_of = {g: lab for lab, g in enumerate(rec.labeling)}
         tags.append(
             BoardTag(
                 row=row,
@@ -286,6 +290,7 @@ def create_board(
                 polarity=pol,
                 corners_mm=tuple((float(a), float(b)) for a, b in corners),
                 points_mm=tuple((float(a), float(b)) for a, b in pts),
+                triangles=tuple((label_of[a], label_of[b], label_of[c]) for a, b, c in geom.triangles),
             )
         )
         label = f"r{row} c{col}  {short_id(rec.lambda_text)}" + (f"  #{number}" if number is not None else "")
@@ -351,6 +356,12 @@ def _xy_list(value: Any, n: int | None, what: str) -> tuple[tuple[float, float],
     return tuple(out)
 
 
+def _triangles(value: Any, k: int) -> tuple[tuple[int, int, int], ...]:
+    if isinstance(value, list) and all(isinstance(t, list) and len(t) == 3 and set(t) <= set(range(k)) for t in value):
+        return tuple((int(t[0]), int(t[1]), int(t[2])) for t in value)
+    raise ValueError(f"triangles must be a list of [a, b, c] point labels 0 … {k - 1}")
+
+
 def _parse_tag(i: int, raw: Any) -> BoardTag:
     if not isinstance(raw, dict):
         raise ValueError("is not an object")
@@ -370,6 +381,7 @@ def _parse_tag(i: int, raw: Any) -> BoardTag:
         polarity=str(raw["polarity"]),
         corners_mm=_xy_list(raw["corners_mm"], 4, "corners_mm"),
         points_mm=points,
+        triangles=_triangles(raw.get("triangles", []), len(points)),
     )
     try:
         form = canonical_form(np.array(points))
@@ -432,16 +444,9 @@ def read_board(path: str | os.PathLike[str]) -> Board:
         except (TypeError, ValueError) as exc:
             raise BoardError(f"{p}: tag {i} {exc}; re-create the board file with `ottag-db board create`") from exc
     try:
-        return Board(
-            tag_size_mm=size,
-            spacing_mm=spacing,
-            rows=rows,
-            cols=cols,
-            tags=tuple(tags),
-            page_mm=None if page is None else (float(page[0]), float(page[1])),
-            page_origin_mm=None if origin is None else (float(origin[0]), float(origin[1])),
-            dictionary=data.get("dictionary"),
-        )
+        page_mm = None if page is None else (float(page[0]), float(page[1]))
+        origin_mm = None if origin is None else (float(origin[0]), float(origin[1]))
+        return Board(size, spacing, rows, cols, tuple(tags), page_mm, origin_mm, data.get("dictionary"))
     except (TypeError, ValueError, IndexError) as exc:
         raise BoardError(f"{p}: malformed page_mm or page_origin_mm ({exc})") from exc
 

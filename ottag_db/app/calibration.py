@@ -20,10 +20,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ottag_db.app.board_refine import Straightening, refine_tag, tag_edges
 from ottag_db.app.boards import Board, board_lookup
 from ottag_db.app.decoding import read_image
 from ottag_db.core.types import ProgressCallback
 from ottag_db.decode import Detector, DetectorParams
+from ottag_db.decode.image import to_gray
 from ottag_db.errors import CalibrationError, ExportError, UsageError
 
 __all__ = [
@@ -58,7 +60,10 @@ class CalibrationOptions:
       fraction across the seen tags; the focal length needs at least two tilted views;
     - ``refine``: after the first fit, decode every view again with the lens distortion of
       that fit removed (straight edges for the line fits; the points are mapped back to the
-      original frame) and fit once more.
+      original frame) and fit once more;
+    - ``edge_fit``: in that second pass, replace each tag's detected points by the board
+      positions mapped through a homography fitted to the tag's printed edges (data-area and
+      triangle sides, :mod:`ottag_db.app.board_refine`).
     """
 
     model: str = "standard"
@@ -69,6 +74,7 @@ class CalibrationOptions:
     outlier_point_sigma: float = 5.0
     min_tilt: float = 0.03
     refine: bool = True
+    edge_fit: bool = True
 
     def __post_init__(self) -> None:
         if self.model not in _MODELS:
@@ -132,66 +138,19 @@ class _View:
     img: _F64  # (n, 2) px
 
 
-@dataclass(frozen=True)
-class _Straightening:
-    """Remap tables that remove the lens distortion of a first camera estimate from a frame
-    (straight board edges for the detector's line fits), and the pinhole camera of the
-    straightened frame (same focal length, wider canvas so nothing is cut off)."""
-
-    mapx: NDArray[np.float32]
-    mapy: NDArray[np.float32]
-    new_k: _F64
-    kmat: _F64
-    dist: _F64
-
-    @classmethod
-    def of(cls, kmat: _F64, dist: _F64, size: tuple[int, int]) -> _Straightening:
-        import cv2
-
-        w, h = size
-        xs, ys = np.linspace(0, w - 1, 64), np.linspace(0, h - 1, 48)
-        border = np.concatenate(
-            [
-                np.c_[xs, np.zeros_like(xs)],
-                np.c_[xs, np.full_like(xs, h - 1)],
-                np.c_[np.zeros_like(ys), ys],
-                np.c_[np.full_like(ys, w - 1), ys],
-            ]
-        )
-        und = cv2.undistortPoints(border.reshape(-1, 1, 2), kmat, dist, None, None, kmat).reshape(-1, 2)
-        lo = np.maximum(und.min(axis=0), [-0.5 * w, -0.5 * h])
-        hi = np.minimum(und.max(axis=0), [1.5 * w, 1.5 * h])
-        new_k = kmat.copy()
-        new_k[0, 2] -= lo[0]
-        new_k[1, 2] -= lo[1]
-        out = (math.ceil(float(hi[0] - lo[0])) + 1, math.ceil(float(hi[1] - lo[1])) + 1)
-        mapx, mapy = cv2.initUndistortRectifyMap(kmat, dist, None, new_k, out, cv2.CV_32FC1)
-        return cls(np.asarray(mapx), np.asarray(mapy), new_k, kmat, dist)
-
-    def straighten(self, image: NDArray[Any]) -> NDArray[Any]:
-        """The frame without lens distortion."""
-        import cv2
-
-        return np.asarray(cv2.remap(image, self.mapx, self.mapy, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REPLICATE))
-
-    def to_frame(self, pts: _F64) -> _F64:
-        """Straightened-frame pixels → pixels of the original (distorted) frame."""
-        import cv2
-
-        n = (pts - self.new_k[[0, 1], [2, 2]]) / self.new_k[[0, 1], [0, 1]]
-        proj, _ = cv2.projectPoints(np.c_[n, np.ones(len(n))], np.zeros(3), np.zeros(3), self.kmat, self.dist)
-        out: _F64 = np.asarray(proj, dtype=np.float64).reshape(-1, 2)
-        return out
-
-
 def _view_correspondences(
-    detector: Detector, board: Board, path: Path, straight: _Straightening | None = None
+    detector: Detector, board: Board, path: Path, straight: Straightening | None = None, edge_fit: bool = False
 ) -> tuple[tuple[int, int], _F64, _F64, int]:
     """Image size, board points, image points and number of board tags seen in one image
-    (detected in the straightened frame when ``straight`` is given, reported in the original)."""
+    (detected in the straightened frame when ``straight`` is given, reported in the original;
+    ``edge_fit``: there, points from each tag's homography fitted to its printed edges)."""
+    import cv2
+
     image = read_image(path)
     h, w = image.shape[:2]
-    detections = detector.detect(image if straight is None else straight.straighten(image))
+    frame = image if straight is None else straight.straighten(image)
+    detections = detector.detect(frame)
+    gray = to_gray(frame).astype(np.float32)
     seen: dict[int, int] = {}
     for d in detections:
         if d.tag is not None:
@@ -204,6 +163,7 @@ def _view_correspondences(
             continue
         tags += 1
         t = board.tags[d.tag]
+        n_before = len(obj)
         obj.append(board.object_points(d.tag)[: t.k])
         img.append(np.asarray(d.points, dtype=np.float64))
         if d.homography is not None:
@@ -216,6 +176,18 @@ def _view_correspondences(
             if np.all(np.linalg.norm(predicted - d.corners, axis=1) < 0.1 * side):
                 obj.append(board.object_points(d.tag)[t.k :])
                 img.append(np.asarray(d.corners, dtype=np.float64))
+        if edge_fit and straight is not None:
+            o, i = np.concatenate(obj[n_before:]), np.concatenate(img[n_before:])
+            h0, _ = cv2.findHomography(o[:, :2], i, 0)
+            fitted = (
+                None
+                if h0 is None
+                else refine_tag(gray, np.asarray(h0, np.float64), tag_edges(t.corners_mm, t.points_mm, t.triangles))
+            )
+            if fitted is not None:
+                q = np.c_[o[:, :2], np.ones(len(o))] @ fitted.T
+                img[n_before:] = [q[:, :2] / q[:, 2:3]]
+                obj[n_before:] = [o]
     if not obj:
         return (w, h), np.zeros((0, 3)), np.zeros((0, 2)), 0
     pixels = np.concatenate(img)
@@ -350,10 +322,10 @@ def calibrate_board(
     first = _calibrate(views, skipped, size, opts)
     if not opts.refine:
         return first
-    straight = _Straightening.of(first.camera_matrix, first.dist_coeffs, size)
+    straight = Straightening.of(first.camera_matrix, first.dist_coeffs, size)
     refined: list[_View] = []
     for j, v in enumerate(views):
-        _, obj, img, tags = _view_correspondences(detector, board, Path(v.image), straight)
+        _, obj, img, tags = _view_correspondences(detector, board, Path(v.image), straight, opts.edge_fit)
         refined.append(_View(v.image, tags, obj, img) if tags >= opts.min_tags else v)
         if progress is not None:
             progress(len(images) + j + 1, 2 * len(images))

@@ -16,11 +16,27 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import MP_THRESHOLDS, StageProgress
-from ottag_db.errors import UsageError
-from ottag_db.files.pointfile import file_sha256, write_point_file
+from ottag_db.errors import OttagError, UsageError
+from ottag_db.files.bundled import bundled_manifest
+from ottag_db.files.pointfile import file_sha256, read_point_file, write_point_file
+from ottag_db.files.resources import data_dir
 from ottag_db.generation.enumeration import enumerate_order_types
 
-__all__ = ["GenerationReport", "file_name", "generate_database"]
+__all__ = ["BundledComparison", "GenerationReport", "file_name", "generate_database"]
+
+
+@dataclass(frozen=True)
+class BundledComparison:
+    """How one generated file compares with the bundled file of the same k.
+
+    - ``identical``: the files are byte-identical;
+    - ``differing``: records whose points differ (0 when identical);
+    - ``records``: records of the generated file.
+    """
+
+    identical: bool
+    differing: int
+    records: int
 
 
 @dataclass(frozen=True)
@@ -33,7 +49,9 @@ class GenerationReport:
     - ``mp_thresholds``: the values v (grid units) of ``mp_table``;
     - ``mp_table``: ``{k: (number of sets with MP ≥ v for each v)}`` (paper's Table 7);
     - ``mp_min``: ``{k: smallest MP of the file}`` (grid units);
-    - ``seed``; ``seconds``: wall time per stage ("enumerate", "realize", "total").
+    - ``seed``; ``seconds``: wall time per stage ("enumerate", "realize", "total");
+    - ``bundled``: ``{k: BundledComparison}`` with the bundled data when ``seed`` is the
+      bundled seed (empty otherwise, or without bundled data).
     """
 
     records: dict[int, int]
@@ -45,6 +63,7 @@ class GenerationReport:
     mp_min: dict[int, float]
     seed: int
     seconds: dict[str, float]
+    bundled: dict[int, BundledComparison]
 
 
 def _tool_version() -> str:
@@ -83,9 +102,14 @@ def generate_database(
 
     Each file holds one set per reflection pair (the chirality whose ID text is smaller),
     sorted by that ID text: a drop-in replacement of the reference ``otypesNN.b08``. The
-    output depends only on ``seed`` (not on ``jobs``, the number of processes); two runs
-    with the same seed write identical files. ``progress(stage, done, total)`` reports
-    the stages ("enumerate k=…", "realize k=…", "write").
+    output depends only on ``seed``: not on ``jobs`` (the number of processes), and a file
+    does not depend on ``max_k`` either; two runs with the same seed write byte-identical
+    files on the same platform. Across machines the continuous stage's floating point
+    (SciPy's SLSQP on OpenBLAS, NumPy's SIMD functions) follows the CPU's instruction set
+    and the library builds, so another platform may realize some sets differently;
+    ``bundled`` in the report says whether each file equals the bundled one.
+    ``progress(stage, done, total)`` reports the stages ("enumerate k=…", "realize k=…",
+    "write").
 
     Parameters
     ----------
@@ -122,6 +146,7 @@ def generate_database(
     types = enumerate_order_types(max_k, progress=progress, jobs=jobs)
     t1 = time.perf_counter()
     out = Path(out_dir)
+    bundled = _bundled_records(seed, list(range(3, max_k + 1)))
     out.mkdir(parents=True, exist_ok=True)
     realized: dict[int, NDArray[np.int64]] = {}
     mps: dict[int, NDArray[np.float64]] = {}
@@ -189,4 +214,44 @@ def generate_database(
         mp_min={k: float(mps[k].min()) for k in ks},
         seed=seed,
         seconds={"enumerate": t1 - t0, "realize": t2 - t1, "total": t3 - t0},
+        bundled=_compare_bundled(realized, bundled),
     )
+
+
+def _bundled_records(seed: int, ks: list[int]) -> dict[int, NDArray[np.int64]]:
+    """The bundled records of each k, read before anything is written (``--out`` may be the
+    bundled folder itself); {} for another seed than the bundled one or without bundled data."""
+    try:
+        manifest = bundled_manifest()
+    except OttagError:
+        return {}
+    files = manifest.get("files")
+    if manifest.get("seed") != seed or not isinstance(files, dict):
+        return {}
+    out: dict[int, NDArray[np.int64]] = {}
+    for k in ks:
+        entry = files.get(str(k))
+        if not isinstance(entry, dict):
+            continue
+        try:
+            out[k] = read_point_file(data_dir() / str(entry.get("file", file_name(k))), k)
+        except OttagError:
+            continue
+    return out
+
+
+def _compare_bundled(
+    realized: dict[int, NDArray[np.int64]], bundled: dict[int, NDArray[np.int64]]
+) -> dict[int, BundledComparison]:
+    """Each generated file's records against the bundled ones of the same k."""
+    out: dict[int, BundledComparison] = {}
+    for k, points in realized.items():
+        theirs = bundled.get(k)
+        if theirs is None:
+            continue
+        if theirs.shape == points.shape:
+            differing = int((theirs != points).any(axis=(1, 2)).sum())
+        else:
+            differing = max(int(points.shape[0]), int(theirs.shape[0]))
+        out[k] = BundledComparison(identical=differing == 0, differing=differing, records=int(points.shape[0]))
+    return out

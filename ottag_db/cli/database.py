@@ -60,7 +60,6 @@ def import_cmd(
         inspect_point_file(each.path, each.points)
     with open_db(db_target, quiet, create=True) as db:
         reports: list[ImportReport] = []
-        job: ImportJob | None = None
         try:
             with interrupts_raise():
                 for job in plan.jobs:
@@ -79,7 +78,7 @@ def import_cmd(
                     reports.append(r)
                     _echo_report(r)
         except ImportInterrupted as exc:
-            _interrupted(db, job, reports, exc)
+            _interrupted(db, list(plan.jobs), reports, exc)
         if len(reports) > 1:
             t = import_totals(reports)
             click.echo(
@@ -99,21 +98,26 @@ def _echo_report(r: ImportReport) -> None:
         )
 
 
-def _interrupted(db: Database, job: ImportJob | None, reports: list[ImportReport], exc: ImportInterrupted) -> NoReturn:
+def _interrupted(db: Database, jobs: list[ImportJob], reports: list[ImportReport], exc: ImportInterrupted) -> NoReturn:
     """Say what an interrupted import left behind, from the database itself, and exit 128 + signal."""
     from ottag_db.store.importer import is_imported
 
+    committed = [r.path.name for r in reports]
     done = {r.path for r in reports}
-    if job is not None and job.path not in done:
-        if is_imported(db, job.path):
-            click.echo(f"interrupted ({exc}): {job.path.name} was imported (committed) before the signal", err=True)
-        else:
-            click.echo(f"interrupted ({exc}): {job.path.name} not imported, the database is unchanged", err=True)
+    pending = [j for j in jobs if j.path not in done]
+    # The signal may land anywhere: inside a file's transaction, just after its commit (before
+    # its report), or between two files. The database, not the loop's position, tells which.
+    if pending and is_imported(db, pending[0].path):
+        click.echo(f"interrupted ({exc}): {pending[0].path.name} was imported (committed) before the signal", err=True)
+        committed.append(pending[0].path.name)
+        pending = pending[1:]
+    if pending:
+        names = ", ".join(j.path.name for j in pending)
+        click.echo(f"interrupted ({exc}): {names} not imported, the database is unchanged by them", err=True)
     else:
         click.echo(f"interrupted ({exc}) after the last file was imported (committed)", err=True)
-    if reports:
-        names = ", ".join(r.path.name for r in reports)
-        click.echo(f"files already committed: {names}", err=True)
+    if committed:
+        click.echo(f"files already committed: {', '.join(committed)}", err=True)
     sys.exit(exc.exit_code)
 
 

@@ -26,10 +26,13 @@ from ottag_db.generation.effort import RealizeEffort, default_effort
 from ottag_db.generation.objective import triple_signs
 from ottag_db.generation.rounding import best_roundings, exact_roundings, integer_local_search, tilt_choice
 
-__all__ = ["RealizedSet", "maximize_mp", "realize_all", "set_rng"]
+__all__ = ["RealizedSet", "chunk_size", "maximize_mp", "realize_all", "set_rng"]
 
-#: Sets per work unit given to one process (fixed, so results do not depend on ``jobs``).
+#: Largest number of sets per work unit given to one process.
 _CHUNK = 24
+#: The work is cut into at least this many units when there are enough sets (so small runs,
+#: e.g. the 16 six-point sets, also spread over processes).
+_MIN_CHUNKS = 8
 
 
 @dataclass(frozen=True)
@@ -137,6 +140,25 @@ def _realize_chunk(
     return out
 
 
+def chunk_size(total: int) -> int:
+    """Sets per work unit of :func:`realize_all` for ``total`` sets.
+
+    At most ``_CHUNK`` (the integer search is batched per unit) and small enough for
+    ``_MIN_CHUNKS`` units; it depends on ``total`` only, never on the number of processes.
+
+    Parameters
+    ----------
+    total : int
+        Number of sets to realize.
+
+    Returns
+    -------
+    int
+        Sets per unit, ≥ 1.
+    """
+    return max(1, min(_CHUNK, -(-total // _MIN_CHUNKS)))
+
+
 def realize_all(
     points: Sequence[ArrayLike],
     texts: Sequence[str],
@@ -149,8 +171,10 @@ def realize_all(
 ) -> list[RealizedSet]:
     """Realize many order types (``points[i]`` a realization of ID ``texts[i]``) on the grid.
 
-    Work is cut into fixed chunks of ``_CHUNK`` sets and spread over ``jobs`` processes;
-    each set is seeded from ``(seed, ID)``, so the result does not depend on ``jobs``.
+    Work is cut into chunks of :func:`chunk_size` sets (a function of the number of sets
+    only) and spread over ``jobs`` processes; each set is seeded from ``(seed, ID)`` and
+    computed on its own (a chunk only batches the integer search, row by row), so the
+    result depends neither on ``jobs`` nor on the chunking, nor on the other sets of the call.
     ``efforts`` overrides :func:`~ottag_db.generation.effort.default_effort` per k.
 
     Parameters
@@ -186,12 +210,13 @@ def realize_all(
     if len(pts_list) != len(texts):
         raise ValueError("points and texts differ in length")
     total = len(pts_list)
+    size = chunk_size(total)
     chunks: list[tuple[NDArray[np.float64], list[str], int, dict[int, RealizeEffort] | None]] = []
-    for start in range(0, total, _CHUNK):
-        block = pts_list[start : start + _CHUNK]
+    for start in range(0, total, size):
+        block = pts_list[start : start + size]
         ks = {p.shape[0] for p in block}
         if len(ks) == 1:
-            chunks.append((np.stack(block), list(texts[start : start + _CHUNK]), seed, efforts))
+            chunks.append((np.stack(block), list(texts[start : start + size]), seed, efforts))
         else:  # mixed k: one chunk per set
             for off, p in enumerate(block):
                 chunks.append((p[None], [texts[start + off]], seed, efforts))
