@@ -8,6 +8,7 @@
 - :mod:`~ottag_db.store.numbering`: universal numbers;
 - :mod:`~ottag_db.store.queries`: statistics, listings, details, ad-hoc IDs;
 - :mod:`~ottag_db.store.tags`: printable tags (reads only);
+- :mod:`~ottag_db.store.sources`: imported point files, listed and removed;
 - :mod:`~ottag_db.store.flipgraph`: the stored flip graph;
 - :mod:`~ottag_db.store.dictionaries` and :mod:`~ottag_db.store.dictionary_files`: named
   dictionaries and their JSON/CSV form;
