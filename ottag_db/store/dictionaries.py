@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
-import numpy as np
 from sqlalchemy import delete, func, select
 from sqlalchemy.orm import Session, selectinload
 
@@ -22,7 +21,7 @@ from ottag_db.errors import DictionaryError, NotFoundError, UsageError
 from ottag_db.store.db import Database
 from ottag_db.store.flipgraph import ensure_flip_graph, flip_adjacency, within_flips
 from ottag_db.store.models import Dictionary, DictionaryTag, LayoutRow, OrderType, Realization, Source
-from ottag_db.store.tags import TagRecord, select_tags
+from ottag_db.store.tags import TagRecord, select_tags, tag_record
 
 __all__ = [
     "DictionaryInfo",
@@ -280,28 +279,6 @@ def find_dictionary(session: Session, name: str) -> Dictionary:
     return d
 
 
-def _tag_record(o: OrderType, r: Realization) -> TagRecord:
-    """The tag of realization ``r`` of order type ``o`` (its layout must be loaded and present)."""
-    lay = r.layout
-    assert lay is not None
-    return TagRecord(
-        order_type_id=o.id,
-        lambda_text=o.lambda_text,
-        k=o.k,
-        mp=float(r.mp),
-        unique_min=bool(o.unique_min),
-        chiral=bool(o.chiral),
-        mirror=o.mirror_lambda_text,
-        realization_id=r.id,
-        points=r.points(),
-        labeling=r.labeling(),
-        triangles=tuple(lay.triangle_list()),
-        placement=np.array(json.loads(lay.placement), dtype=np.float64),
-        printed_mp_unit=float(lay.printed_mp_unit),
-        layout_score=float(lay.score),
-    )
-
-
 def dictionary_source_name(name: str) -> str:
     """The ``sources.file_name`` of the geometry ``dictionary import`` stored for dictionary ``name``.
 
@@ -352,7 +329,7 @@ def dictionary_tag_records(db: Database, name: str) -> tuple[DictionaryInfo, lis
         )
         pinned_ids = sorted({r[3] for r in rows if r[3] is not None})
         pinned = {
-            r.id: _tag_record(r.order_type, r)
+            r.id: tag_record(r.order_type, r)
             for r in s.execute(
                 select(Realization)
                 .join(LayoutRow, LayoutRow.realization_id == Realization.id)

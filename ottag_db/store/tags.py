@@ -18,7 +18,7 @@ from sqlalchemy.orm import Session, selectinload
 from ottag_db.store.db import Database
 from ottag_db.store.models import LayoutRow, OrderType, Realization
 
-__all__ = ["TagRecord", "select_tags"]
+__all__ = ["TagRecord", "select_tags", "tag_record"]
 
 
 @dataclass(frozen=True)
@@ -45,6 +45,42 @@ class TagRecord:
     printed_mp_unit: float
     layout_score: float
     tag: int | None = None
+
+
+def tag_record(o: OrderType, r: Realization) -> TagRecord:
+    """The printable tag of realization ``r`` of order type ``o``.
+
+    Parameters
+    ----------
+    o : OrderType
+        The order type (ORM row).
+    r : Realization
+        One of its realizations, with its stored layout loaded (``r.layout`` not None).
+
+    Returns
+    -------
+    TagRecord
+        Points in file order, the stored triangles and placement, MP in grid units.
+    """
+    lay = r.layout
+    if lay is None:  # every realization of a drawable k gets a layout at import
+        raise ValueError(f"realization {r.id} has no stored layout")
+    return TagRecord(
+        order_type_id=o.id,
+        lambda_text=o.lambda_text,
+        k=o.k,
+        mp=float(r.mp),
+        unique_min=bool(o.unique_min),
+        chiral=bool(o.chiral),
+        mirror=o.mirror_lambda_text,
+        realization_id=r.id,
+        points=r.points(),
+        labeling=r.labeling(),
+        triangles=tuple(lay.triangle_list()),
+        placement=np.array(json.loads(lay.placement), dtype=np.float64),
+        printed_mp_unit=float(lay.printed_mp_unit),
+        layout_score=float(lay.score),
+    )
 
 
 def _best_realizations(s: Session, order_type_ids: Sequence[int]) -> dict[int, Realization]:
@@ -118,23 +154,5 @@ def select_tags(
                 continue
             if min_mp is not None and r.mp < min_mp:
                 continue
-            lay = r.layout
-            out.append(
-                TagRecord(
-                    order_type_id=o.id,
-                    lambda_text=o.lambda_text,
-                    k=o.k,
-                    mp=float(r.mp),
-                    unique_min=bool(o.unique_min),
-                    chiral=bool(o.chiral),
-                    mirror=o.mirror_lambda_text,
-                    realization_id=r.id,
-                    points=r.points(),
-                    labeling=r.labeling(),
-                    triangles=tuple(lay.triangle_list()),
-                    placement=np.array(json.loads(lay.placement), dtype=np.float64),
-                    printed_mp_unit=float(lay.printed_mp_unit),
-                    layout_score=float(lay.score),
-                )
-            )
+            out.append(tag_record(o, r))
     return out
