@@ -5,6 +5,9 @@ from __future__ import annotations
 import json
 import os
 import re
+import sys
+import tempfile
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -90,7 +93,10 @@ def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
     truncated or damaged file.
 
     A JPEG or PNG that ends before its last marker (an interrupted copy or download) is refused
-    before decoding, where OpenCV would return the top part and only warn.
+    before decoding, where OpenCV would return the top part and only warn. A JPEG damaged
+    inside its coded data (libjpeg's "Corrupt JPEG data: …" warning, on which OpenCV still
+    returns a partly invented image) is refused too, with one line of ours in place of
+    libjpeg's raw text.
 
     Parameters
     ----------
@@ -114,10 +120,55 @@ def read_image(path: str | os.PathLike[str]) -> NDArray[Any]:
     damage = _truncation(data)
     if damage is not None:
         raise DecodeError(f"{p}: {damage}; copy or export the file again")
-    img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED) if data else None
+    if data[:2] == b"\xff\xd8":
+        img, warning = _imdecode_jpeg(data)
+        damage = _jpeg_damage(warning)
+        if damage is not None:
+            raise DecodeError(
+                f"{p}: damaged JPEG (libjpeg: {damage}): part of the picture would be made up; "
+                "copy or export the file again"
+            )
+        if warning:
+            sys.stderr.write(warning)  # another libjpeg note (not about damage): pass it on unchanged
+    else:
+        img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED) if data else None
     if img is None:
         raise DecodeError(f"{p}: not an image OpenCV can read, or a damaged one (PNG, JPEG, TIFF, BMP, …)")
     return np.asarray(img)
+
+
+#: libjpeg warnings saying the coded data is damaged (the decoded pixels are partly invented).
+_JPEG_DAMAGE = re.compile(r"^(Corrupt JPEG data: .*|Premature end of JPEG file.*)$", re.MULTILINE)
+#: libjpeg prints its warnings on file descriptor 2: one capture at a time.
+_STDERR_LOCK = threading.Lock()
+
+
+def _imdecode_jpeg(data: bytes) -> tuple[NDArray[Any] | None, str]:
+    """Decode JPEG bytes with OpenCV and return what libjpeg printed meanwhile (not shown)."""
+    buf = np.frombuffer(data, dtype=np.uint8)
+    with _STDERR_LOCK, tempfile.TemporaryFile() as sink:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        try:
+            os.dup2(sink.fileno(), 2)
+            try:
+                img = cv2.imdecode(buf, cv2.IMREAD_UNCHANGED)
+            finally:
+                os.dup2(saved, 2)
+        finally:
+            os.close(saved)
+        sink.seek(0)
+        text = sink.read().decode("utf-8", "replace")
+    return img, text
+
+
+def _jpeg_damage(warning: str) -> str | None:
+    """libjpeg's damage warning, shortened (``"bad Huffman code"``), or None."""
+    found = _JPEG_DAMAGE.search(warning)
+    if found is None:
+        return None
+    text = found.group(1).strip()
+    return text.removeprefix("Corrupt JPEG data: ").strip() or text
 
 
 #: A JPEG marker inside entropy-coded data: 0xFF not followed by 0x00 (stuffing), RSTn or 0xFF.

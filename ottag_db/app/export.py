@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import math
 import os
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,14 +19,17 @@ from ottag_db.errors import ExportError, NotFoundError, UsageError
 from ottag_db.printing.geometry import TagGeometry, build_tag_geometries
 from ottag_db.printing.output import check_writable
 from ottag_db.printing.raster import render_raster
-from ottag_db.printing.sheet import SheetOptions, SheetReport, SheetTag, write_tag_sheet
+from ottag_db.printing.sheet import SheetOptions, SheetReport, SheetTag, sheet_layout, write_tag_sheet
 from ottag_db.printing.svg import render_svg
 from ottag_db.store.db import Database
 from ottag_db.store.dictionaries import dictionary_tag_records
+from ottag_db.store.queries import find_order_type
 from ottag_db.store.tags import TagRecord, select_tags
 
 __all__ = [
+    "FOUR_POINT_NOTE",
     "TagFilter",
+    "check_sheet_name",
     "export_sheet",
     "render_tag",
     "resolve_tag",
@@ -32,6 +37,14 @@ __all__ = [
     "short_id",
     "tag_geometries",
 ]
+
+
+#: Why no 4-point tag is ever drawn (README, "Tags and tag size").
+FOUR_POINT_NOTE = (
+    "order types of 4 points cannot be drawn as tags: the layout rules (every point a triangle vertex, "
+    'triangles empty, disjoint, no shared edge; README "Tags and tag size") have no solution for 4 points '
+    "- use k = 3 or 5 … 8"
+)
 
 
 def short_id(lambda_text: str) -> str:
@@ -117,8 +130,19 @@ def select_for_export(db: Database, flt: TagFilter) -> list[TagRecord]:
     else:
         tags = pick(texts, numbers)
     if not tags:
-        raise ExportError(f"no tags match the filters ({flt.summary()}); nothing written")
+        why = f"; {FOUR_POINT_NOTE}" if _asks_for_four_points(db, flt, numbers, texts) else ""
+        raise ExportError(f"no tags match the filters ({flt.summary()}); nothing written{why}")
     return tags
+
+
+def _asks_for_four_points(db: Database, flt: TagFilter, numbers: Sequence[int], texts: Sequence[str]) -> bool:
+    """Whether the filter names 4-point order types (by ``--k`` or by ID), which have no tag."""
+    if 4 in flt.ks or any(t.startswith("4:") for t in texts):
+        return True
+    if not numbers:
+        return False
+    with db.session() as s:
+        return any((o := find_order_type(s, n)) is not None and o.k == 4 for n in numbers)
 
 
 def tag_geometries(tags: Sequence[TagRecord], polarity: Polarity, tag_size: float) -> list[TagGeometry]:
@@ -152,6 +176,27 @@ def tag_geometries(tags: Sequence[TagRecord], polarity: Polarity, tag_size: floa
         for i, g in zip(idx, geoms, strict=True):
             out[i] = g
     return [g for g in out if g is not None]
+
+
+def check_sheet_name(path: Path) -> None:
+    """Refuse a tag-sheet name that does not end in ``.pdf`` (a directory is left to
+    :func:`~ottag_db.printing.output.check_writable`).
+
+    Parameters
+    ----------
+    path : Path
+        The output file asked for.
+
+    Raises
+    ------
+    UsageError
+        Another suffix; the message points to ``ottag-db render`` for one tag as PNG or SVG.
+    """
+    if not path.is_dir() and path.suffix.lower() != ".pdf":
+        raise UsageError(
+            f"{path}: export writes a PDF tag sheet, name it .pdf; for one tag as an image use "
+            "ottag-db render ID OUT.png|OUT.svg"
+        )
 
 
 def export_sheet(
@@ -189,25 +234,61 @@ def export_sheet(
     dictionary : str, optional
         Print this dictionary's members instead.
     progress : ProgressCallback, optional
-        ``progress(done, total)`` in tags, after each page.
+        ``progress(done, total)`` in pages: once with 0 before drawing, then after each page.
 
     Returns
     -------
     SheetReport
-        What was written.
+        What was written; ``seconds`` is the wall time of the whole call (selection,
+        drawing and writing).
 
     Raises
     ------
     UsageError
-        Bad polarity or sizes.
+        An output name not ending in ``.pdf`` (the message points to :func:`render_tag` /
+        ``ottag-db render`` for single tags), bad polarity or sizes.
     ExportError
-        Nothing matches, a tag does not fit, or the file cannot be written.
+        Nothing matches (naming why 4-point order types never match), a tag does not fit, or
+        the file cannot be written.
     """
+    started = time.perf_counter()
+    path = Path(out)
+    check_sheet_name(path)
     if polarity not in ("normal", "inverted", "both"):
         raise UsageError(f"polarity must be normal, inverted or both, got {polarity!r}")
-    check_writable(Path(out))
+    check_writable(path)
     if dictionary is not None:
-        return _export_dictionary_sheet(db, out, dictionary, flt, options, progress)
+        rep = _export_dictionary_sheet(db, out, dictionary, flt, options, progress)
+    else:
+        rep = _export_filtered_sheet(db, out, flt, options, polarity, progress)
+    return dataclasses.replace(rep, seconds=time.perf_counter() - started)
+
+
+def _write_sheet(
+    out: str | os.PathLike[str], tags: Sequence[SheetTag], options: SheetOptions, progress: ProgressCallback | None
+) -> SheetReport:
+    """:func:`write_tag_sheet` with ``progress(pages done, pages total)``, starting at 0."""
+    if progress is None or not tags:
+        return write_tag_sheet(out, tags, options)
+    per_page = sheet_layout(options, tags).per_page
+    pages = math.ceil(len(tags) / per_page)
+    report_pages = progress
+    report_pages(0, pages)
+
+    def page_done(done: int, _total: int) -> None:
+        report_pages(math.ceil(done / per_page), pages)
+
+    return write_tag_sheet(out, tags, options, progress=page_done)
+
+
+def _export_filtered_sheet(
+    db: Database,
+    out: str | os.PathLike[str],
+    flt: TagFilter,
+    options: SheetOptions,
+    polarity: str,
+    progress: ProgressCallback | None,
+) -> SheetReport:
     tags = select_for_export(db, flt)
     polarities: list[Polarity] = list(POLARITIES) if polarity == "both" else [polarity]  # type: ignore[list-item]
     placed = tag_geometries(tags, polarities[0], options.tag_size_mm)  # place once, recolour below
@@ -219,7 +300,7 @@ def export_sheet(
     ]
     summary = flt.summary() + f"; polarity {polarity}"
     opts = dataclasses.replace(options, filter_summary=summary)
-    return write_tag_sheet(out, sheet_tags, opts, progress=progress)
+    return _write_sheet(out, sheet_tags, opts, progress)
 
 
 def _export_dictionary_sheet(
@@ -249,7 +330,7 @@ def _export_dictionary_sheet(
         for m, g in zip(members, placed, strict=True)
     ]
     summary = f"dictionary {name} (min flip distance {info.min_flip_distance}); " + flt.summary()
-    return write_tag_sheet(out, sheet_tags, dataclasses.replace(options, filter_summary=summary), progress=progress)
+    return _write_sheet(out, sheet_tags, dataclasses.replace(options, filter_summary=summary), progress)
 
 
 def resolve_tag(db: Database, ident: str) -> TagRecord:
@@ -270,13 +351,22 @@ def resolve_tag(db: Database, ident: str) -> TagRecord:
     Raises
     ------
     NotFoundError
-        Unknown ID, or an order type without a layout (k = 4).
+        Unknown ID, or a 4-point order type (the message says why it has no tag).
     """
     numbers, texts = _split_ids([ident])
+    if any(t.startswith("4:") for t in texts):
+        raise NotFoundError(f"no tag for {ident}: {FOUR_POINT_NOTE}")
     tags = select_tags(db, lambdas=texts, ids=numbers)
-    if not tags:
-        raise NotFoundError(f"no drawable tag for {ident} in the database (unknown ID, or k = 4)")
-    return tags[0]
+    if tags:
+        return tags[0]
+    with db.session() as s:
+        found = find_order_type(s, numbers[0] if numbers else texts[0])
+        if found is not None and found.k == 4:
+            raise NotFoundError(f"no tag for {ident} (order type #{found.id}, k = 4): {FOUR_POINT_NOTE}")
+        if found is not None:
+            raise NotFoundError(f"order type {ident} has no stored layout; run ottag-db db upgrade")
+    kind = "id" if numbers else "ID"
+    raise NotFoundError(f"no order type with {kind} {ident} in the database (see ottag-db list)")
 
 
 def render_tag(

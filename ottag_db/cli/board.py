@@ -51,7 +51,11 @@ def board_create(
     the first tag's data area, x right, y down.
     """
     from ottag_db.app.boards import create_board
+    from ottag_db.app.export import FOUR_POINT_NOTE
+    from ottag_db.errors import UsageError
 
+    if k == 4 and dictionary is None:
+        raise UsageError(f"--k 4: {FOUR_POINT_NOTE}")
     bar = Progress(f"flip graph of k = {k}", quiet)
     with open_db(db_target, quiet) as db:
         try:

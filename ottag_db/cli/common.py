@@ -161,11 +161,13 @@ def open_db(target: str | None, quiet: bool = False, *, create: bool = False) ->
 
 
 class Progress:
-    """A click progress bar on stderr driven by ``(done, total)`` callbacks."""
+    """A click progress bar on stderr driven by ``(done, total)`` callbacks (``show_pos``: also
+    ``done/total``, e.g. pages)."""
 
-    def __init__(self, label: str, quiet: bool):
+    def __init__(self, label: str, quiet: bool, *, show_pos: bool = False):
         self.label = label
         self.quiet = quiet
+        self.show_pos = show_pos
         self._bar: Any = None
         self._done = 0
 
@@ -173,7 +175,7 @@ class Progress:
         if self.quiet:
             return
         if self._bar is None:
-            self._bar = click.progressbar(length=total, label=self.label, file=sys.stderr)
+            self._bar = click.progressbar(length=total, label=self.label, file=sys.stderr, show_pos=self.show_pos)
             self._bar.__enter__()
         self._bar.update(done - self._done)
         self._done = done

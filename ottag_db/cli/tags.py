@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import click
 
-from ottag_db.cli.common import TAG_SIZE_HELP, Progress, db_options, open_db, quiet_option
+from ottag_db.cli.common import TAG_SIZE_HELP, Progress, db_options, note, open_db, quiet_option
 
 __all__ = ["export_cmd", "render_cmd"]
 
@@ -66,9 +67,13 @@ def export_cmd(
 
     Tag size is the side of the black data area. As many tags as fit go on a page: tags of
     one polarity share their quiet zones, labels sit outside every quiet zone. Print at
-    100 % scale and check the 100 mm ruler on every page.
+    100 % scale and check the 100 mm ruler on every page. For one tag as PNG or SVG use
+    ``ottag-db render``.
     """
-    from ottag_db.app.export import TagFilter, export_sheet
+    started = time.perf_counter()  # the report gives the wall time of the whole command
+    from ottag_db.app.export import FOUR_POINT_NOTE, TagFilter, check_sheet_name, export_sheet
+
+    check_sheet_name(out)  # before the database is opened
     from ottag_db.app.options import sheet_options
 
     options = sheet_options(
@@ -83,15 +88,18 @@ def export_cmd(
     )
     flt = TagFilter(ks=ks, min_mp=min_mp, matchable=matchable, ids=ids)
     with open_db(db_target, quiet) as db:
-        bar = Progress("writing tags", quiet)
+        bar = Progress("drawing pages", quiet, show_pos=True)
         try:
             rep = export_sheet(db, out, flt, options, polarity=polarity, dictionary=dictionary, progress=bar)
         finally:
             bar.close()
+    if 4 in ks:
+        note(f"note: k = 4 skipped: {FOUR_POINT_NOTE}", quiet)
     shared = ", shared quiet zones" if rep.packed else ""
     click.echo(
         f"{out}: {rep.tags} tags on {rep.pages} page(s), {rep.per_page} per page ({rep.columns}×{rep.rows}{shared}), "
-        f"tag size {rep.tag_size_mm:g} mm (quiet zone {rep.quiet_zone_mm:g} mm), {rep.seconds:.1f} s"
+        f"tag size {rep.tag_size_mm:g} mm (quiet zone {rep.quiet_zone_mm:g} mm), "
+        f"{time.perf_counter() - started:.1f} s"
     )
 
 

@@ -115,3 +115,50 @@ def test_detector_from_database_and_camera_files(dbfile: Path, fig4_png: Path, t
     bad.write_text('{"fx": 1}')
     with pytest.raises(UsageError, match="fx, fy, cx, cy"):
         load_camera(bad)
+
+
+# ----------------------------------------------------------------------------- issue 11, item 8
+def _damage_jpeg(src: Path, dst: Path) -> None:
+    """Flip 8 bytes in the middle of the entropy-coded data of a JPEG written by cv2.imwrite."""
+    data = bytearray(src.read_bytes())
+    sos = data.index(b"\xff\xda")
+    start = sos + 2 + int.from_bytes(data[sos + 2 : sos + 4], "big")
+    end = data.rindex(b"\xff\xd9")
+    mid = (start + end) // 2
+    for i in range(mid, mid + 8):
+        data[i] ^= 0x5A
+    dst.write_bytes(bytes(data))
+
+
+def test_jpeg_damaged_in_the_middle_is_an_error(dbfile: Path, fig4_png: Path, tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    from ottag_db.app.decoding import read_image
+    from ottag_db.errors import DecodeError
+
+    good = tmp_path / "good.jpg"
+    assert cv2.imwrite(str(good), cv2.imread(str(fig4_png)), [cv2.IMWRITE_JPEG_QUALITY, 95])
+    bad = tmp_path / "bad.jpg"
+    _damage_jpeg(good, bad)
+    # Precondition: OpenCV alone returns an image and only libjpeg's warning says it is damaged.
+    shape = read_image(good).shape
+    probe = "import cv2, sys; print(cv2.imread(sys.argv[1]).shape)"
+    raw = subprocess.run([sys.executable, "-c", probe, str(bad)], capture_output=True, text=True, check=True)
+    assert raw.stdout.strip() == str(shape) and "Corrupt JPEG data" in raw.stderr
+    with pytest.raises(DecodeError, match=r"bad\.jpg: damaged JPEG \(.+\).*copy or export the file again"):
+        read_image(bad)
+
+    cmd = [sys.executable, "-m", "ottag_db", "decode", "--db", str(dbfile)]
+    res = subprocess.run([*cmd, str(bad)], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 1 and res.stdout == ""
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {bad}: damaged JPEG"), res.stderr
+    assert "Corrupt JPEG data" not in res.stderr  # our line replaces libjpeg's raw text
+    # In a batch the other files still decode, the damaged one is a record with "error".
+    res = subprocess.run([*cmd, "--json", str(good), str(bad)], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 1
+    recs = [json.loads(x) for x in res.stdout.strip().splitlines()]
+    assert [d["lambda"] for d in recs[0]["detections"]] == [TABLE9_TEXT]
+    assert "damaged JPEG" in recs[1]["error"] and recs[1]["detections"] == []
+    assert "Corrupt JPEG data" not in res.stderr and "1 of 2 file(s) could not be read" in res.stderr

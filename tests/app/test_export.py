@@ -304,3 +304,62 @@ def test_readme_export_packs_twelve_tags_per_a4_page(db_copy: Path, tmp_path: Pa
     assert res.exit_code == 0 and "shared" not in res.stdout
     res = runner.invoke(cli, [*args, "--spacing", "-1mm", str(tmp_path / "bad.pdf")])
     assert res.exit_code == 2 and "-1mm" in res.output
+
+
+# ----------------------------------------------------------------------------- issue 11, item 8
+def test_export_refuses_non_pdf_names(db_copy: Path, tmp_path: Path) -> None:
+    db = open_database(db_copy)
+    try:
+        for name in ("x.png", "x.svg", "sheet", "x.pdf.tmp"):
+            with pytest.raises(UsageError, match=r"name it \.pdf.*ottag-db render ID OUT\.png\|OUT\.svg"):
+                export_sheet(db, tmp_path / name, TagFilter(ks=(5,)), SheetOptions())
+            assert not (tmp_path / name).exists()
+        rep = export_sheet(db, tmp_path / "upper.PDF", TagFilter(ks=(5,)), SheetOptions())
+        assert rep.tags == 3 and (tmp_path / "upper.PDF").read_bytes().startswith(b"%PDF")
+    finally:
+        db.close()
+
+
+def test_four_point_tags_are_explained(db_copy: Path, tmp_path: Path) -> None:
+    db = open_database(db_copy)
+    try:
+        k4 = list_order_types(db, ks=(4,))
+        assert len(k4) == 2
+        why = "order types of 4 points cannot be drawn as tags.*no shared edge"
+        for flt in (TagFilter(ks=(4,)), TagFilter(ids=(k4[0].lambda_text,)), TagFilter(ids=(str(k4[1].id),))):
+            with pytest.raises(ExportError, match="no tags match.*" + why):
+                export_sheet(db, tmp_path / "k4.pdf", flt, SheetOptions())
+        with pytest.raises(ExportError, match="no tags match") as info:
+            export_sheet(db, tmp_path / "k8.pdf", TagFilter(ks=(8,), min_mp=50.0), SheetOptions())
+        assert "4 points" not in str(info.value)  # only said when 4-point tags were asked for
+        for ident in (k4[0].lambda_text, str(k4[0].id)):
+            with pytest.raises(NotFoundError, match=why):
+                render_tag(db, ident, tmp_path / "k4.png")
+        with pytest.raises(NotFoundError, match="no order type with id 999999"):
+            render_tag(db, "999999", tmp_path / "none.png")
+        assert not list(tmp_path.glob("k4.*"))
+    finally:
+        db.close()
+
+
+def test_export_progress_in_pages_and_whole_wall_time(db_copy: Path, tmp_path: Path) -> None:
+    import time
+
+    calls: list[tuple[int, int]] = []
+    db = open_database(db_copy)
+    try:
+        started = time.perf_counter()
+        rep = export_sheet(
+            db, tmp_path / "p.pdf", TagFilter(ks=(7,)), SheetOptions(), progress=lambda d, t: calls.append((d, t))
+        )
+        elapsed = time.perf_counter() - started
+        select_started = time.perf_counter()
+        select_for_export(db, TagFilter(ks=(7,)))
+        select_seconds = time.perf_counter() - select_started
+    finally:
+        db.close()
+    assert rep.pages > 1
+    assert calls == [(p, rep.pages) for p in range(rep.pages + 1)]  # 0 before drawing, then each page
+    assert len(PdfReader(tmp_path / "p.pdf").pages) == rep.pages
+    # The report's seconds cover the whole call (selection too), not only the drawing.
+    assert select_seconds * 0.5 < rep.seconds <= elapsed

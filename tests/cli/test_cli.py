@@ -397,3 +397,92 @@ def test_db_check_and_server_urls(runner: CliRunner, bdb: Path) -> None:
     res = runner.invoke(cli, ["stats", "--db", "postgresql://u:pw@localhost/ottag"])
     assert res.exit_code == 1 and "only SQLite databases are supported (got postgresql)" in res.stderr
     assert "pw" not in res.stderr
+
+
+def test_export_refuses_non_pdf_names_before_opening_the_database(runner: CliRunner, bdb: Path, tmp_path: Path) -> None:
+    before = dump_database(bdb)
+    for db in (bdb, tmp_path / "missing.sqlite"):
+        res = runner.invoke(cli, ["export", "--db", str(db), "--k", "5", str(tmp_path / "x.png")])
+        assert res.exit_code == 2, res.output
+        assert res.stderr.strip().splitlines() == [
+            f"error: {tmp_path / 'x.png'}: export writes a PDF tag sheet, name it .pdf; "
+            "for one tag as an image use ottag-db render ID OUT.png|OUT.svg"
+        ]
+        assert res.stdout == "" and not (tmp_path / "x.png").exists()
+    assert not (tmp_path / "missing.sqlite").exists()
+    assert dump_database(bdb) == before
+
+
+def test_four_point_tags_are_explained_in_every_drawing_command(runner: CliRunner, bdb: Path, tmp_path: Path) -> None:
+    why = "order types of 4 points cannot be drawn as tags"
+    k4 = "4:0210001211012010"
+    cases = [
+        (["export", "--k", "4", str(tmp_path / "k4.pdf")], 1),
+        (["export", "--ids", k4, str(tmp_path / "k4.pdf")], 1),
+        (["render", k4, str(tmp_path / "k4.png")], 1),
+        (["board", "create", "--k", "4", "--rows", "1", "--cols", "2", str(tmp_path / "b.pdf")], 2),
+    ]
+    for args, code in cases:
+        res = runner.invoke(cli, [*args, "--db", str(bdb)])
+        assert res.exit_code == code, (args, res.output)
+        lines = res.stderr.strip().splitlines()
+        assert len(lines) == 1 and why in lines[0] and "no shared edge" in lines[0], (args, res.stderr)
+        assert "Traceback" not in res.output
+    assert not list(tmp_path.glob("k4.*")) and not (tmp_path / "b.pdf").exists()
+    # Mixed with drawable k: the others are written and k = 4 is said to be skipped.
+    res = runner.invoke(cli, ["export", "--db", str(bdb), "--k", "4", "--k", "5", str(tmp_path / "k45.pdf")])
+    assert res.exit_code == 0, res.output
+    assert res.stdout.startswith(f"{tmp_path / 'k45.pdf'}: 3 tags on 1 page(s)")
+    assert f"note: k = 4 skipped: {why}" in res.stderr
+
+
+def test_export_progress_bar_and_wall_time(runner: CliRunner, bdb: Path, tmp_path: Path) -> None:
+    import re
+    import time
+
+    out = tmp_path / "t.pdf"
+    args = ["export", "--db", str(bdb), "--k", "7", str(out)]
+    started = time.perf_counter()
+    res = runner.invoke(cli, args)
+    elapsed = time.perf_counter() - started
+    assert res.exit_code == 0, res.output
+    assert "drawing pages" in res.stderr  # the bar (only its label when stderr is no terminal)
+    found = re.fullmatch(r".*: 242 tags on (\d+) page\(s\), .*, (\d+\.\d) s\n", res.stdout)
+    assert found is not None, res.stdout
+    # The whole command (opening the database, selection, drawing, writing), printed to the
+    # tenth: not more than the runner measured, and most of it (a loose bound: machines are noisy).
+    assert 0.5 * elapsed - 0.05 <= float(found.group(2)) <= elapsed + 0.05, (found.group(2), elapsed)
+    quiet = runner.invoke(cli, [*args, "--quiet"])
+    assert quiet.exit_code == 0 and quiet.stderr == ""
+
+
+def test_export_progress_bar_counts_pages_on_a_terminal(bdb: Path, tmp_path: Path) -> None:
+    import os
+    import pty
+
+    out = tmp_path / "t.pdf"
+    primary, secondary = pty.openpty()
+    try:
+        proc = subprocess.run(
+            [sys.executable, "-m", "ottag_db", "export", "--db", str(bdb), "--k", "7", str(out)],
+            stderr=secondary,
+            stdout=subprocess.PIPE,
+            text=True,
+            timeout=300,
+        )
+        os.close(secondary)
+        chunks = []
+        while True:
+            try:
+                chunk = os.read(primary, 65536)
+            except OSError:
+                break
+            if not chunk:
+                break
+            chunks.append(chunk)
+    finally:
+        os.close(primary)
+    assert proc.returncode == 0, proc.stdout
+    pages = int(proc.stdout.split(" page(s)")[0].rsplit(" ", 1)[1])
+    shown = b"".join(chunks).decode("utf-8", "replace")
+    assert "drawing pages" in shown and f"0/{pages}" in shown and f"{pages}/{pages}" in shown
