@@ -5,6 +5,7 @@ from __future__ import annotations
 __all__ = [
     "BoardError",
     "CalibrationError",
+    "ClusterError",
     "DatabaseError",
     "DecodeError",
     "DictionaryError",
@@ -77,3 +78,7 @@ class BoardError(OttagError):
 
 class CalibrationError(OttagError):
     """A camera cannot be calibrated from the given board and images (too few or degenerate views)."""
+
+
+class ClusterError(OttagError):
+    """A Dask scheduler cannot be reached (``generate --scheduler``)."""

@@ -22,7 +22,7 @@ from ottag_db.files.pointfile import file_sha256, read_point_file, write_point_f
 from ottag_db.files.resources import data_dir
 from ottag_db.generation.enumeration import enumerate_order_types
 
-__all__ = ["BundledComparison", "GenerationReport", "file_name", "generate_database"]
+__all__ = ["BundledComparison", "GenerationReport", "default_work_dir", "file_name", "generate_database"]
 
 
 @dataclass(frozen=True)
@@ -90,26 +90,52 @@ def file_name(k: int) -> str:
     return f"ottag-k{k:02d}.b08"
 
 
+def default_work_dir(out_dir: Path) -> Path:
+    """The folder beside ``out_dir`` where :func:`generate_database` keeps finished batches.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The output folder.
+
+    Returns
+    -------
+    Path
+        ``OUT.partial`` next to ``OUT`` (absolute).
+    """
+    out = Path(out_dir).resolve()
+    return out.with_name(f"{out.name or 'out'}.partial")
+
+
 def generate_database(
     max_k: int = 8,
     out_dir: Path = Path("data"),
     seed: int = 0,
     jobs: int = 1,
     progress: StageProgress | None = None,
+    *,
+    scheduler: str | None = None,
+    work_dir: Path | None = None,
 ) -> GenerationReport:
     """Enumerate all order types of 3 … ``max_k`` points, realize each reflection pair on the
     [0, 255]² grid with a large MP and write ``ottag-kNN.b08`` plus ``manifest.json``.
 
     Each file holds one set per reflection pair (the chirality whose ID text is smaller),
     sorted by that ID text: a drop-in replacement of the reference ``otypesNN.b08``. The
-    output depends only on ``seed``: not on ``jobs`` (the number of processes), and a file
-    does not depend on ``max_k`` either; two runs with the same seed write byte-identical
-    files on the same platform. Across machines the continuous stage's floating point
-    (SciPy's SLSQP on OpenBLAS, NumPy's SIMD functions) follows the CPU's instruction set
-    and the library builds, so another platform may realize some sets differently;
+    output depends only on ``seed``: not on the workers (``jobs`` local Dask worker processes
+    or the cluster at ``scheduler``), and a file does not depend on ``max_k`` either; two
+    runs with the same seed write byte-identical files on the same platform. Across machines
+    the continuous stage's floating point (SciPy's SLSQP on OpenBLAS, NumPy's SIMD
+    functions) follows the CPU's instruction set and the library builds, so another platform
+    may realize some sets differently;
     ``bundled`` in the report says whether each file equals the bundled one.
     ``progress(stage, done, total)`` reports the stages ("enumerate k=…", "realize k=…",
     "write").
+
+    **Resumable:** every finished batch of sets is kept in ``work_dir`` (default
+    :func:`default_work_dir`); after an interrupt the same call skips them (a realize bar then
+    starts where the last run stopped). The batch files are deleted once the files are
+    written.
 
     Parameters
     ----------
@@ -120,9 +146,15 @@ def generate_database(
     seed : int, optional
         Run seed of the realization.
     jobs : int, optional
-        Number of processes (≥ 1).
+        Worker processes (≥ 1): the enumeration's process pool and, when above 1, a local
+        Dask cluster of ``jobs`` workers (one thread each) for the realization.
     progress : StageProgress, optional
         ``progress(stage, done, total)``.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``) whose workers (with
+        ottag-db installed) realize the sets instead of a local cluster.
+    work_dir : Path, optional
+        Folder for finished batches; :func:`default_work_dir` of ``out_dir`` when None.
 
     Returns
     -------
@@ -133,6 +165,8 @@ def generate_database(
     ------
     UsageError
         For ``max_k`` outside 3 … 8 or ``jobs < 1``.
+    ClusterError
+        When ``scheduler`` cannot be reached.
     """
     if not 3 <= max_k <= 8:
         raise UsageError(f"max_k must be between 3 and 8, got {max_k}")
@@ -140,28 +174,35 @@ def generate_database(
         raise UsageError(f"jobs must be at least 1, got {jobs}")
     # Imported here: the realization needs SciPy, which `import ottag_db.generation.database`
     # (e.g. by the CLI at start-up) should not load.
+    from ottag_db.generation.checkpoint import BatchStore
+    from ottag_db.generation.parallel import Workers, open_workers
     from ottag_db.generation.realize import realize_all
 
-    t0 = time.perf_counter()
-    types = enumerate_order_types(max_k, progress=progress, jobs=jobs)
-    t1 = time.perf_counter()
     out = Path(out_dir)
     bundled = _bundled_records(seed, list(range(3, max_k + 1)))
     out.mkdir(parents=True, exist_ok=True)
+    work = Path(work_dir) if work_dir is not None else default_work_dir(out)
     realized: dict[int, NDArray[np.int64]] = {}
     mps: dict[int, NDArray[np.float64]] = {}
-    for k in range(3, max_k + 1):
-        reps = sorted((r for r in types[k] if r.representative), key=lambda r: r.text)
-        sets = realize_all(
-            [r.points for r in reps],
-            [r.text for r in reps],
-            seed=seed,
-            jobs=jobs,
-            progress=progress,
-            stage=f"realize k={k}",
-        )
-        realized[k] = np.stack([s.points for s in sets])
-        mps[k] = np.array([s.mp for s in sets])
+    start = time.perf_counter()
+    # Workers first: an unreachable scheduler fails before the enumeration, not after it.
+    with open_workers(Workers(jobs=jobs, scheduler=scheduler)) as runner:
+        t0 = time.perf_counter()
+        types = enumerate_order_types(max_k, progress=progress, jobs=jobs)
+        t1 = time.perf_counter()
+        for k in range(3, max_k + 1):
+            reps = sorted((r for r in types[k] if r.representative), key=lambda r: r.text)
+            sets = realize_all(
+                [r.points for r in reps],
+                [r.text for r in reps],
+                seed=seed,
+                runner=runner,
+                work_dir=work,
+                progress=progress,
+                stage=f"realize k={k}",
+            )
+            realized[k] = np.stack([s.points for s in sets])
+            mps[k] = np.array([s.mp for s in sets])
     t2 = time.perf_counter()
     ks = list(range(3, max_k + 1))
     if progress is not None:
@@ -203,6 +244,7 @@ def generate_database(
     }
     manifest_path = out / "manifest.json"
     manifest_path.write_text(json.dumps(manifest, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+    BatchStore(work).clear()
     t3 = time.perf_counter()
     return GenerationReport(
         records={k: int(realized[k].shape[0]) for k in ks},
@@ -213,7 +255,7 @@ def generate_database(
         mp_table=table,
         mp_min={k: float(mps[k].min()) for k in ks},
         seed=seed,
-        seconds={"enumerate": t1 - t0, "realize": t2 - t1, "total": t3 - t0},
+        seconds={"enumerate": t1 - t0, "realize": t2 - t1, "total": t3 - start},
         bundled=_compare_bundled(realized, bundled),
     )
 

@@ -8,6 +8,8 @@
   :mod:`~ottag_db.generation.rounding` (rounding, integer search, tilt-robust choice), with
   the figures of merit in :mod:`~ottag_db.generation.objective` and the search effort in
   :mod:`~ottag_db.generation.effort`;
+- :mod:`~ottag_db.generation.parallel` runs the realization's batches in process or on Dask,
+  :mod:`~ottag_db.generation.checkpoint` keeps finished batches for a resumed run;
 - writing the files ``ottag-kNN.b08`` and ``manifest.json`` from both is the use case
   :mod:`ottag_db.app.generating`.
 """

@@ -3,17 +3,17 @@
 Per set: the continuous stage (:mod:`ottag_db.generation.continuous`) finds a real-valued
 optimum, the integer stage (:mod:`ottag_db.generation.rounding`) rounds it, hill-climbs on
 the grid and picks the tilt-robust result. This module orders the stages, seeds them per
-set and spreads the work over processes.
+set, spreads the work over Dask workers (:mod:`~ottag_db.generation.parallel`) and keeps
+finished batches for a resumed run (:mod:`~ottag_db.generation.checkpoint`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import itertools
-import os
-from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,17 +21,19 @@ from numpy.typing import ArrayLike, NDArray
 from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.types import StageProgress
 from ottag_db.errors import UsageError
+from ottag_db.generation.checkpoint import BatchStore, StoredBatch, batch_digest
 from ottag_db.generation.continuous import optimize_continuous
 from ottag_db.generation.effort import RealizeEffort, default_effort
 from ottag_db.generation.objective import triple_signs
+from ottag_db.generation.parallel import BatchRunner, Workers, open_workers
 from ottag_db.generation.rounding import best_roundings, exact_roundings, integer_local_search, tilt_choice
 
-__all__ = ["RealizedSet", "chunk_size", "maximize_mp", "realize_all", "set_rng"]
+__all__ = ["BatchDone", "RealizedSet", "chunk_size", "maximize_mp", "realize_all", "set_rng"]
 
-#: Largest number of sets per work unit given to one process.
+#: Largest number of sets per work unit given to one worker.
 _CHUNK = 24
 #: The work is cut into at least this many units when there are enough sets (so small runs,
-#: e.g. the 16 six-point sets, also spread over processes).
+#: e.g. the 16 six-point sets, also spread over workers).
 _MIN_CHUNKS = 8
 
 
@@ -159,23 +161,70 @@ def chunk_size(total: int) -> int:
     return max(1, min(_CHUNK, -(-total // _MIN_CHUNKS)))
 
 
+@dataclass(frozen=True)
+class BatchDone:
+    """A batch of :func:`realize_all` that is finished: its ``index`` (in the call), the number
+    of ``sets`` in it, and ``reused`` — True when it was read from the work folder of an
+    earlier, interrupted run instead of computed."""
+
+    index: int
+    sets: int
+    reused: bool
+
+
+_Chunk = tuple[NDArray[np.float64], list[str], int, dict[int, RealizeEffort] | None]
+
+
+def _chunks(
+    pts_list: list[NDArray[np.float64]], texts: Sequence[str], seed: int, efforts: dict[int, RealizeEffort] | None
+) -> list[_Chunk]:
+    """Work units of :func:`chunk_size` sets (one per set where a unit would mix k)."""
+    total = len(pts_list)
+    size = chunk_size(total)
+    chunks: list[_Chunk] = []
+    for start in range(0, total, size):
+        block = pts_list[start : start + size]
+        ks = {p.shape[0] for p in block}
+        if len(ks) == 1:
+            chunks.append((np.stack(block), list(texts[start : start + size]), seed, efforts))
+        else:  # mixed k: one chunk per set
+            for off, p in enumerate(block):
+                chunks.append((p[None], [texts[start + off]], seed, efforts))
+    return chunks
+
+
+def _chunk_path(store: BatchStore, index: int, chunk: _Chunk) -> Path:
+    points, texts, seed, efforts = chunk
+    k = points.shape[1]
+    eff = efforts.get(k, default_effort(k)) if efforts else default_effort(k)
+    return store.path(k, seed, index, batch_digest(points, texts, seed, eff))
+
+
 def realize_all(
     points: Sequence[ArrayLike],
     texts: Sequence[str],
     *,
     seed: int = 0,
     jobs: int = 1,
+    scheduler: str | None = None,
+    runner: BatchRunner | None = None,
+    work_dir: Path | None = None,
     efforts: dict[int, RealizeEffort] | None = None,
     progress: StageProgress | None = None,
     stage: str = "realize",
+    on_batch: Callable[[BatchDone], None] | None = None,
 ) -> list[RealizedSet]:
     """Realize many order types (``points[i]`` a realization of ID ``texts[i]``) on the grid.
 
-    Work is cut into chunks of :func:`chunk_size` sets (a function of the number of sets
-    only) and spread over ``jobs`` processes; each set is seeded from ``(seed, ID)`` and
-    computed on its own (a chunk only batches the integer search, row by row), so the
-    result depends neither on ``jobs`` nor on the chunking, nor on the other sets of the call.
-    ``efforts`` overrides :func:`~ottag_db.generation.effort.default_effort` per k.
+    Work is cut into batches of :func:`chunk_size` sets (a function of the number of sets
+    only) and run in this process (``jobs`` = 1), on a local Dask cluster of ``jobs`` worker
+    processes, or on an existing Dask cluster (``scheduler`` or ``runner``). Each set is seeded
+    from ``(seed, ID)`` and computed on its own (a batch only batches the integer search, row
+    by row) and results are put back in input order, so the result depends neither on the
+    workers nor on the batching, nor on the other sets of the call. With ``work_dir`` every
+    finished batch is kept there (see :mod:`~ottag_db.generation.checkpoint`) and batches
+    found there are not computed again: a run interrupted at any point resumes where it
+    stopped. ``efforts`` overrides :func:`~ottag_db.generation.effort.default_effort` per k.
 
     Parameters
     ----------
@@ -186,13 +235,24 @@ def realize_all(
     seed : int, optional
         Run seed (see :func:`set_rng`).
     jobs : int, optional
-        Number of processes (≥ 1).
+        Worker processes of a local Dask cluster (≥ 1; 1 runs in this process). Ignored
+        with ``scheduler`` or ``runner``.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``).
+    runner : BatchRunner, optional
+        Workers already opened with :func:`~ottag_db.generation.parallel.open_workers`
+        (one cluster for several calls).
+    work_dir : Path, optional
+        Folder for finished batches (created when needed; never emptied here).
     efforts : dict of int to RealizeEffort, optional
         Effort per k, overriding :func:`default_effort`.
     progress : StageProgress, optional
-        ``progress(stage, done, total)`` in sets, as chunks finish.
+        ``progress(stage, done, total)`` in sets, as batches finish (reused ones first).
     stage : str, optional
         Stage name passed to ``progress``.
+    on_batch : callable, optional
+        ``on_batch(BatchDone)`` after each batch is finished and kept; an exception raised
+        there stops the run (the batches kept so far stay in ``work_dir``).
 
     Returns
     -------
@@ -203,6 +263,8 @@ def realize_all(
     ------
     UsageError
         For ``jobs < 1`` or a set whose ID cannot be kept.
+    ClusterError
+        When ``scheduler`` cannot be reached.
     """
     if jobs < 1:
         raise UsageError(f"jobs must be at least 1, got {jobs}")
@@ -210,31 +272,58 @@ def realize_all(
     if len(pts_list) != len(texts):
         raise ValueError("points and texts differ in length")
     total = len(pts_list)
-    size = chunk_size(total)
-    chunks: list[tuple[NDArray[np.float64], list[str], int, dict[int, RealizeEffort] | None]] = []
-    for start in range(0, total, size):
-        block = pts_list[start : start + size]
-        ks = {p.shape[0] for p in block}
-        if len(ks) == 1:
-            chunks.append((np.stack(block), list(texts[start : start + size]), seed, efforts))
-        else:  # mixed k: one chunk per set
-            for off, p in enumerate(block):
-                chunks.append((p[None], [texts[start + off]], seed, efforts))
-    results: list[RealizedSet] = []
+    chunks = _chunks(pts_list, texts, seed, efforts)
+    store = BatchStore(work_dir) if work_dir is not None else None
+    paths = [_chunk_path(store, i, c) for i, c in enumerate(chunks)] if store is not None else []
+    results: list[list[RealizedSet] | None] = [None] * len(chunks)
     done = 0
     if progress is not None:
         progress(stage, 0, total)
-    if jobs == 1 or len(chunks) == 1:
-        for chunk in chunks:
-            results.extend(_realize_chunk(chunk))
-            done += len(chunk[1])
-            if progress is not None:
-                progress(stage, done, total)
-        return results
-    with ProcessPoolExecutor(max_workers=min(jobs, len(chunks), os.cpu_count() or jobs)) as pool:
-        for part in pool.map(_realize_chunk, chunks):
-            results.extend(part)
-            done += len(part)
-            if progress is not None:
-                progress(stage, done, total)
-    return results
+
+    def finished(i: int, part: list[RealizedSet], reused: bool) -> None:
+        nonlocal done
+        results[i] = part
+        done += len(part)
+        if progress is not None:
+            progress(stage, done, total)
+        if on_batch is not None:
+            on_batch(BatchDone(index=i, sets=len(part), reused=reused))
+
+    todo: list[int] = []
+    for i, chunk in enumerate(chunks):
+        kept = store.load(paths[i], chunk[1]) if store is not None else None
+        if kept is None:
+            todo.append(i)
+        else:
+            finished(i, _from_stored(kept), True)
+
+    def computed(j: int, part: list[RealizedSet]) -> None:
+        i = todo[j]
+        if store is not None:
+            store.save(paths[i], _to_stored(part))
+        finished(i, part, False)
+
+    work = [chunks[i] for i in todo]
+    if runner is not None:
+        runner.run(_realize_chunk, work, computed)
+    else:
+        workers = Workers(jobs=jobs if len(work) > 1 else 1, scheduler=scheduler)
+        with open_workers(workers) as own:
+            own.run(_realize_chunk, work, computed)
+    return [s for part in results if part is not None for s in part]
+
+
+def _to_stored(part: list[RealizedSet]) -> StoredBatch:
+    return StoredBatch(
+        texts=tuple(s.text for s in part),
+        points=np.stack([s.points for s in part]).astype(np.int64),
+        mp=np.array([s.mp for s in part], dtype=np.float64),
+        continuous_mp=np.array([s.continuous_mp for s in part], dtype=np.float64),
+    )
+
+
+def _from_stored(batch: StoredBatch) -> list[RealizedSet]:
+    return [
+        RealizedSet(text=t, points=batch.points[i], mp=float(batch.mp[i]), continuous_mp=float(batch.continuous_mp[i]))
+        for i, t in enumerate(batch.texts)
+    ]
