@@ -426,7 +426,10 @@ def upgrade(db: Database, revision: str = "head") -> None:
         Target revision (default the newest).
     """
     cfg = _alembic_config()
-    with db.engine.begin() as conn:
+    # db.write() opens the transaction with an explicit BEGIN: Python's sqlite3 driver starts none
+    # before DDL, so without it every CREATE TABLE commits on its own and a process killed
+    # mid-migration leaves a half-built schema behind.
+    with db.write() as conn:
         _run_upgrade(cfg, conn, revision)
 
 
