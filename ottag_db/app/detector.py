@@ -12,7 +12,9 @@ def detector_from_database(
 ) -> Detector:
     """A detector whose lookup is loaded once from a database (or one named dictionary).
 
-    The database is read here only; :meth:`Detector.detect` never touches it.
+    The database is read here only; :meth:`Detector.detect` never touches it. The lookup
+    carries each realization's stored layout, which soft decoding checks (a corrected reading
+    must show the triangles its tag is printed with).
 
     Parameters
     ----------

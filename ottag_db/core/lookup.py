@@ -22,7 +22,12 @@ class LookupEntry:
     - ``realizations``: stored point sets of this order type, each ``(k, 2)`` float64 in
       file (grid) coordinates, rows in *canonical label order* (row ``l`` is the point with
       canonical label ``l``), screen convention (x right, y down);
-    - ``tag``: number of the tag in the loaded dictionary, or None.
+    - ``tag``: number of the tag in the loaded dictionary, or None;
+    - ``extra``: store-specific values (a dictionary's ``"tags"``: polarity → number);
+    - ``layouts``: ``layouts[r]`` the triangles printed for ``realizations[r]`` as triples of
+      canonical labels (an empty tuple when the store does not know them; the whole field
+      empty when it knows none). Soft decoding accepts a corrected reading only when its
+      triangles are these (:mod:`ottag_db.decode.soft`).
     """
 
     lambda_text: str
@@ -32,6 +37,7 @@ class LookupEntry:
     realizations: tuple[NDArray[np.float64], ...]
     tag: int | None = None
     extra: Mapping[str, object] = field(default_factory=dict)
+    layouts: tuple[tuple[tuple[int, int, int], ...], ...] = ()
 
 
 @runtime_checkable

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from ottag_db.core.types import Polarity
 from ottag_db.decode.types import Detection, DetectorParams, Quad
 
-__all__ = ["Binarization", "around_detection", "find_quads", "same_quad", "same_tag"]
+__all__ = ["Binarization", "around_detection", "find_quads", "same_quad", "same_tag", "squeeze"]
 
 _F64 = NDArray[np.float64]
 
@@ -92,9 +92,15 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         area = abs(float(cv2.contourArea(approx)))
         if area < min_area or area > max_area:
             continue
-        if q[:, 0].min() < 2 or q[:, 1].min() < 2 or q[:, 0].max() > w - 3 or q[:, 1].max() > h - 3:
-            continue
+        # plain Python on the 4 corners (numpy reductions cost more than they save here)
         (ax, ay), (bx, by), (cx, cy), (dx, dy) = q.tolist()
+        if (
+            min(ax, bx, cx, dx) < 2
+            or min(ay, by, cy, dy) < 2
+            or max(ax, bx, cx, dx) > w - 3
+            or max(ay, by, cy, dy) > h - 3
+        ):
+            continue
         if min(
             math.hypot(bx - ax, by - ay), math.hypot(cx - bx, cy - by),
             math.hypot(dx - cx, dy - cy), math.hypot(ax - dx, ay - dy),
@@ -138,8 +144,9 @@ def same_quad(a: Quad, b: Quad) -> bool:
     ratio = a.area / max(b.area, 1e-9)
     if not 0.7 < ratio < 1.4:
         return False
-    d = np.linalg.norm(a.corners.mean(axis=0) - b.corners.mean(axis=0))
-    return bool(d < 0.15 * math.sqrt(max(a.area, b.area)))
+    ax, ay = _centre(a.corners.tolist())
+    bx, by = _centre(b.corners.tolist())
+    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2) < 0.15 * math.sqrt(max(a.area, b.area))
 
 
 def around_detection(quad: Quad, detections: list[Detection]) -> bool:
@@ -148,17 +155,64 @@ def around_detection(quad: Quad, detections: list[Detection]) -> bool:
     Candidates are read smallest first, so this skips the outline of a decoded tag's quiet
     zone (or a frame around it) and duplicates of its data area without reading them.
     """
-    c = quad.corners.mean(axis=0)
+    if not detections:
+        return False
+    # plain Python on 4 corners per detection: a frame with many tags calls this per candidate
+    cx, cy = _centre(quad.corners.tolist())
+    reach = 0.15 * math.sqrt(quad.area)
     for d in detections:
-        area = abs(float(cv2.contourArea(d.corners.astype(np.float32))))
-        if quad.area > 0.8 * area and np.linalg.norm(d.corners.mean(axis=0) - c) < 0.15 * math.sqrt(quad.area):
-            return True
+        corners = d.corners.astype(np.float32).tolist()  # the area as OpenCV's of float32 points
+        if quad.area > 0.8 * _area(corners):
+            dx, dy = _centre(d.corners.tolist())
+            if math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) < reach:
+                return True
     return False
 
 
 def same_tag(a: Detection, b: Detection) -> bool:
     """True when two detections are one tag (same polarity, centres closer than 20 % of the
     diagonal of ``a``)."""
-    d = np.linalg.norm(a.corners.mean(axis=0) - b.corners.mean(axis=0))
-    size = np.linalg.norm(a.corners[0] - a.corners[2])
-    return bool(d < 0.2 * size and a.polarity == b.polarity)
+    if a.polarity != b.polarity:
+        return False
+    ac = a.corners.tolist()
+    ax, ay = _centre(ac)
+    bx, by = _centre(b.corners.tolist())
+    (x0, y0), _, (x2, y2), _ = ac
+    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2) < 0.2 * math.sqrt((x0 - x2) ** 2 + (y0 - y2) ** 2)
+
+
+def _centre(corners: list[list[float]]) -> tuple[float, float]:
+    """Mean of a few ``[x, y]`` points."""
+    n = len(corners)
+    return sum(x for x, _ in corners) / n, sum(y for _, y in corners) / n
+
+
+def _area(corners: list[list[float]]) -> float:
+    """Unsigned area of a polygon given by its ``[x, y]`` corners (shoelace)."""
+    (px, py) = corners[-1]
+    twice = 0.0
+    for x, y in corners:
+        twice += px * y - py * x
+        px, py = x, y
+    return abs(0.5 * twice)
+
+
+def squeeze(quad: Quad) -> float:
+    """How strongly a candidate is foreshortened: the smaller over the larger singular value of
+    the affine map taking the unit square's diagonals to the quad's (1 head-on, about
+    cos(tilt) for a tilt about any axis; a side ratio would miss a tilt about a diagonal).
+
+    Parameters
+    ----------
+    quad : Quad
+        The candidate (image pixels).
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
+    q = quad.corners
+    diagonals = np.stack([q[2] - q[0], q[3] - q[1]], axis=1)
+    sv = np.linalg.svd(diagonals, compute_uv=False)
+    return float(sv[1] / max(float(sv[0]), 1e-12))

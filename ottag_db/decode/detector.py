@@ -11,6 +11,7 @@ Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.typ
     identify     identify                         PointHypothesis → ID → LookupEntry
     verify       verify                           → Detection | Rejection
     upsample     (a failed candidate read again at 2×)
+    rectify      (a failed candidate read again in a fronto-parallel view of its data area)
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from ottag_db.decode.cluster import cluster_hypotheses
 from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.image import to_gray
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.rectify import read_rectified, wants_rectified
 from ottag_db.decode.refine import refine
 from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, then_alternatives
 from ottag_db.decode.triangles import bad_triangles
@@ -57,7 +59,7 @@ _RETRY_UPSAMPLED: frozenset[RejectReason] = frozenset(
 #: Larger data areas (px) are not upsampled (their slivers are wide enough; bounds the cost).
 _UPSAMPLE_MAX_SIDE = 640.0
 _UPSAMPLE = 2.0
-#: More triangles than this cannot hold 8 points (each triangle has 3 of them, two triangles share
+#: More triangles than this cannot hold 9 points (each triangle has 3 of them, two triangles share
 #: at most one): the component soup of a non-tag.
 _MAX_TRIANGLES = 12
 
@@ -84,9 +86,12 @@ class Detector:
     decompositions (the opening, slit cuts, and *strict* fits that also cut at every reflex
     corner of the polygon approximation and do not let a small triangle hanging at a corner
     pass as part of a large one); the data area upsampled 2× (cubic) for slivers and slits
-    about a pixel wide; and, for a reading whose smallest margin is below ``min_margin_px``
-    because of exactly one near-collinear triple, both sides of that triple, accepted only
-    when exactly one verifies and its mapped realization keeps ``min_margin_px``.
+    about a pixel wide; for a candidate tilted beyond about 60°, a fronto-parallel upsampled
+    view of its data area (:mod:`~ottag_db.decode.rectify`, ``rectify``); and, for a reading
+    whose smallest margin is below ``min_margin_px``,
+    soft decoding (:mod:`~ottag_db.decode.soft`): the reading with up to ``soft_max_flips`` of
+    its near-collinear triples reversed, each candidate the lookup holds verified, accepted
+    only when exactly one verifies, ahead of every other by ``soft_min_fit_gap``.
 
     The detector holds only immutable settings and the lookup: :meth:`detect` keeps no state
     between calls and may run on several threads at once (the lookup must allow concurrent
@@ -187,6 +192,8 @@ class Detector:
                 result = read_quad(gray, quad, self._catalogue, True, clock)
                 if isinstance(result, Rejection) and result.reason in _RETRY_UPSAMPLED and result.decomposed:
                     result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
+                if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
+                    result = read_rectified(gray, quad, result, self._catalogue, clock)
                 if isinstance(result, Rejection):
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):
@@ -347,7 +354,7 @@ def read_upsampled(
     if not isinstance(res, Detection):
         return first
     margin = res.margin_px / f
-    if margin < min_margin_px:
+    if margin < min_margin_px and res.corrected_flips is None:  # soft decoding decided already
         return first
     to_img = np.array([[1 / f, 0, shift[0]], [0, 1 / f, shift[1]], [0, 0, 1.0]])
     hom = None if res.homography is None else to_img @ res.homography

@@ -2,19 +2,31 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.canonical import lambda_text
+from ottag_db.core.layout import LAYOUT_MAX_K
 from ottag_db.core.lookup import LookupEntry, TagLookup
-from ottag_db.core.single_set import margin, orientation_table, read_set
+from ottag_db.core.single_set import OrientationTable, read_set
 from ottag_db.core.types import Polarity
+from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.soft import (
+    FlipReading,
+    Scored,
+    ambiguous_triples,
+    choose,
+    confirms,
+    flip_readings,
+    layout_matches,
+    observed_triangles,
+)
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
-from ottag_db.decode.verify import SideLines, apply_homography, verify
+from ottag_db.decode.verify import Assessment, SideLines, assess, verify
 
 __all__ = ["Catalogue", "identify"]
 
@@ -56,11 +68,13 @@ def identify(
     Detection or Rejection
         Rejections ``"point_count"``, ``"general_position"``, ``"low_margin"``,
         ``"unknown_id"``, ``"polarity_not_in_dictionary"`` or those of
-        :func:`~ottag_db.decode.verify.verify`.
+        :func:`~ottag_db.decode.verify.verify`. A reading under ``min_margin_px`` is
+        soft-decoded (with ``verify`` and ``soft_max_flips`` > 0): a detection then has
+        ``corrected_flips`` set, a refusal is ``"low_margin"`` with the reason in its detail.
     """
     p = catalogue.params
     k = len(pts)
-    if k < 3 or k > 8 or (k not in catalogue.ks and not p.allow_unknown):
+    if k < 3 or k > LAYOUT_MAX_K or (k not in catalogue.ks and not p.allow_unknown):
         return Rejection("point_count", f"{k} points")
     table, orderings = read_set(pts)
     if not table.margin > 0:
@@ -69,7 +83,9 @@ def identify(
     lam = lambda_text(best_mat)
     if table.margin < p.min_margin_px:
         low = Rejection("low_margin", f"margin {table.margin:.2f} px", lam)
-        return _disambiguate(pts, lines, corners, quad, table.margin, low, catalogue, clock) if p.verify else low
+        if not p.verify or p.soft_max_flips == 0:
+            return low
+        return _soft_decode(pts, lines, corners, quad, table, low, catalogue, clock)
     minimal = _minimal(orderings)
     entry = catalogue.lookup.get(lam)
     if entry is None:
@@ -82,6 +98,11 @@ def identify(
     member = _for_polarity(entry, quad.polarity, lam)
     if isinstance(member, Rejection):
         return member
+    if member.layouts and p.layout_check_ratio > 0 and squeeze(quad) <= p.layout_check_ratio:
+        printed = _as_printed(member, minimal, observed_triangles(lines))
+        if printed is None:
+            return Rejection("verification", "oblique view: the detected triangles are not this tag's layout", lam)
+        member, minimal = printed
     clock.lap("identify")
     result = verify(member, pts, lines, minimal, corners, quad, table.margin, lam, p)
     clock.lap("verify")
@@ -107,54 +128,80 @@ def _for_polarity(entry: LookupEntry, polarity: Polarity, lam: str) -> LookupEnt
     return replace(entry, tag=int(number))
 
 
-def _disambiguate(
+def _soft_decode(
     pts: _F64,
     lines: SideLines,
     corners: _F64,
     quad: Quad,
-    low_margin: float,
+    table: OrientationTable,
     low: Rejection,
     catalogue: Catalogue,
     clock: StageClock,
 ) -> Detection | Rejection:
-    """A reading with one point nearly on the line through two others: read both sides.
+    """A reading under ``min_margin_px``: the reading and its ambiguous triples reversed.
 
-    The point is put on either side of the line (at ``min_margin_px``); each reading is
-    looked up and verified on the same side lines. Exactly one must verify, and the
-    realization it maps into the image must itself keep ``min_margin_px``; else ``low``.
+    Every candidate of :func:`~ottag_db.decode.soft.flip_readings` that the lookup holds (in
+    the detected polarity) and whose flipped chirotope is its stored realization's is
+    verified; :func:`~ottag_db.decode.soft.choose` decides. Else ``low``, with why in its
+    detail.
     """
     p = catalogue.params
-    table = orientation_table(pts)
-    first, second = table.pairs.first, table.pairs.second
-    dist = table.distance
-    rows, cols = np.nonzero(dist < p.min_margin_px)
-    near = {tuple(sorted((int(first[u]), int(second[u]), int(v)))) for u, v in zip(rows, cols, strict=True)}
-    if len(near) != 1:
-        return low  # more than one near-collinear triple: too many readings
-    r, pt = np.unravel_index(int(np.argmin(dist)), dist.shape)
-    d = pts[second[r]] - pts[first[r]]
-    nrm = np.array([-d[1], d[0]]) / np.maximum(np.hypot(d[0], d[1]), 1e-12)
-    s = float(nrm @ (pts[pt] - pts[first[r]]))
-    found: list[Detection] = []
-    for side in (1.0, -1.0):
-        moved = pts.copy()
-        moved[pt] += (side * p.min_margin_px - s) * nrm
-        moved_table, orderings = read_set(moved)
-        if not moved_table.margin > 0:
-            return low
-        lam = lambda_text(orderings[0][1])
-        entry = catalogue.lookup.get(lam)
+    triples = ambiguous_triples(table, p.min_margin_px)
+    if len(triples) > p.soft_max_triples:
+        return replace(low, detail=f"{low.detail}; {len(triples)} ambiguous triples")
+    observed = observed_triangles(lines)
+    found: list[tuple[FlipReading, Assessment]] = []
+    for reading in flip_readings(table, triples, p.soft_max_flips):
+        entry = catalogue.lookup.get(reading.lambda_text)
         if entry is None:
             continue
-        member = _for_polarity(entry, quad.polarity, lam)
-        if isinstance(member, Rejection):
+        member = _for_polarity(entry, quad.polarity, reading.lambda_text)
+        if isinstance(member, Rejection) or not member.realizations:
             continue
+        if not confirms(pts, reading.flips, reading.minimal[0], member.realizations[0]):
+            continue
+        printed = _as_printed(member, reading.minimal, observed)
+        if printed is None:
+            continue  # not the triangles of this order type's tags: not a candidate
         clock.lap("identify")
-        res = verify(member, pts, lines, _minimal(orderings), corners, quad, low_margin, lam, p)
+        found.append(
+            (reading, assess(printed[0], pts, lines, printed[1], corners, quad, table.margin, reading.lambda_text, p))
+        )
         clock.lap("verify")
-        if isinstance(res, Detection) and res.homography is not None and res.model_points is not None:
-            if margin(apply_homography(res.homography, res.model_points)) >= p.min_margin_px:
-                found.append(res)
-        elif isinstance(res, Detection):
-            return low  # verified without a realization to check: undecided
-    return found[0] if len(found) == 1 else low
+    if not found:
+        return replace(low, detail=f"{low.detail}; no candidate in the lookup")
+    bound = found[0][1].bound
+    choice = choose([Scored(isinstance(a.result, Detection), a.error) for _, a in found], bound, p.soft_min_fit_gap)
+    if isinstance(choice, str):
+        return replace(low, detail=f"{low.detail}; {choice}")
+    reading, winner = found[choice]
+    if not isinstance(winner.result, Detection):  # choose() picks only a candidate that verified
+        return low
+    return replace(winner.result, corrected_flips=len(reading.flips))
+
+
+def _as_printed(
+    entry: LookupEntry, minimal: Sequence[tuple[int, ...]], observed: frozenset[frozenset[int]] | None
+) -> tuple[LookupEntry, list[tuple[int, ...]]] | None:
+    """``entry`` with only the realizations, and ``minimal`` with only the labelings, under
+    which the detected triangles are a stored layout; None when there are none, or when the
+    entry has layouts and the detected triangles are not known. An entry without layouts
+    (e.g. a portable dictionary file) is returned whole: its candidates are judged by fit."""
+    if not entry.layouts:
+        return entry, list(minimal)
+    if observed is None:
+        return None
+    keep = [
+        r
+        for r, layout in enumerate(entry.layouts)
+        if layout and any(layout_matches(observed, layout, lab) for lab in minimal)
+    ]
+    labs = [lab for lab in minimal if any(layout_matches(observed, entry.layouts[r], lab) for r in keep)]
+    if not keep or not labs:
+        return None
+    kept = replace(
+        entry,
+        realizations=tuple(entry.realizations[r] for r in keep),
+        layouts=tuple(entry.layouts[r] for r in keep),
+    )
+    return kept, labs

@@ -246,44 +246,55 @@ def refine_lines(
     sd = b - a
     # sample positions along each side (the vertices lie on their lines: no projection needed)
     base = a[:, None, :] + _REFINE_FR[None, :, None] * sd[:, None, :]  # (S, M, 2)
-    # distance of every triangle sample to every other triangle side segment
-    sdt = sd[:st]
-    ln2 = np.maximum((sdt * sdt).sum(axis=1), 1e-12)
-    rel = base[:st, :, None, :] - a[None, None, :st, :]  # (St, M, St, 2)
-    u = np.clip(np.einsum("ijkl,kl->ijk", rel, sdt) / ln2, 0.0, 1.0)
-    rel -= u[..., None] * sdt
-    gap = np.einsum("ijkl,ijkl->ijk", rel, rel)
+    # distance of every triangle sample to every other triangle side segment, by coordinate
+    # (plain broadcasts: einsum's set-up costs more than these few thousand products)
+    bx, by = base[:st, :, 0, None], base[:st, :, 1, None]  # (St, M, 1)
+    ax, ay = a[:st, 0], a[:st, 1]
+    dx, dy = sd[:st, 0], sd[:st, 1]
+    ln2 = np.maximum(dx * dx + dy * dy, 1e-12)
+    rx = bx - ax  # (St, M, St)
+    ry = by - ay
+    u = (rx * dx + ry * dy) / ln2
+    np.clip(u, 0.0, 1.0, out=u)
+    rx -= u * dx
+    ry -= u * dy
+    gap = rx * rx + ry * ry
     gap[np.arange(st), :, np.arange(st)] = np.inf
     width = np.sqrt(gap.min(axis=2))  # (St, M)
-    wide = np.ones((s, len(_REFINE_FR)), dtype=bool)
+    m_fr = len(_REFINE_FR)
+    wide = np.ones((s, m_fr), dtype=bool)
     wide[:st] = width >= np.minimum(3.0, 0.6 * width.max(axis=1))[:, None]
     offs = _REFINE_OFFS
     n_o = len(offs)
-    samp = base[:, :, None, :] + offs[None, None, :, None] * normal[:, None, None, :]  # (S, M, O, 2)
-    samp32 = samp.astype(np.float32).reshape(-1, n_o, 2)
-    vals32 = cv2.remap(img, samp32, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload]
-    vals = vals32.reshape(s * len(_REFINE_FR), n_o).astype(np.float64) - level
+    # sample grid (S, M, O, 2), built in float32 for remap
+    samp32 = np.empty((s, m_fr, n_o, 2), dtype=np.float32)
+    step_xy = offs[:, None] * normal[:, None, :]  # (S, O, 2)
+    np.add(base[:, :, None, :], step_xy[:, None, :, :], out=samp32, casting="same_kind")
+    vals32 = cv2.remap(img, samp32.reshape(-1, n_o, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload]
+    vals = vals32.reshape(s * m_fr, n_o).astype(np.float64)
+    vals -= level
     above = vals > 0
     change = above[:, 1:] != above[:, :-1]  # crossing between o and o+1
-    j = np.argmin(np.where(change, _REFINE_MID, np.inf), axis=1)
+    j = np.where(change, _REFINE_MID, np.inf).argmin(axis=1)
     rows = np.arange(len(vals))
     v0 = vals[rows, j]
     den = v0 - vals[rows, j + 1]
     step = den != 0
     o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
     valid = (change.any(axis=1) & wide.ravel()).reshape(s, -1)
-    pts = base + o.reshape(s, -1)[:, :, None] * normal[:, None, :]
+    o2 = o.reshape(s, -1)
+    px = base[..., 0] + o2 * normal[:, 0, None]
+    py = base[..., 1] + o2 * normal[:, 1, None]
     w = valid.astype(np.float64)
     cnt = w.sum(axis=1)
     good = (cnt >= 3) & finite
     cnt_safe = np.maximum(cnt, 1)
-    px, py = pts[..., 0], pts[..., 1]
     mx_ = (w * px).sum(axis=1) / cnt_safe
     my_ = (w * py).sum(axis=1) / cnt_safe
-    dx = px - mx_[:, None]
-    dy = py - my_[:, None]
-    wdx = w * dx
-    n2, c2 = lines_from_moments(mx_, my_, (wdx * dx).sum(axis=1), (wdx * dy).sum(axis=1), (w * dy * dy).sum(axis=1))
+    px -= mx_[:, None]
+    py -= my_[:, None]
+    wdx = w * px
+    n2, c2 = lines_from_moments(mx_, my_, (wdx * px).sum(axis=1), (wdx * py).sum(axis=1), (w * py * py).sum(axis=1))
     # keep the orientation of the old normal
     flip = (n2 * normal).sum(axis=1) < 0
     n2[flip] *= -1

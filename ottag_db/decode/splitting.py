@@ -15,13 +15,23 @@ from numpy.typing import NDArray
 from ottag_db.core.single_set import pair_table
 from ottag_db.decode.triangles import off_triangle, triangle_fit, triangle_fit_parts
 
-__all__ = ["STRICT_BUDGET", "FitBudget", "component_decompositions", "notch_cuts", "reflex_corners", "split_triangles"]
+__all__ = [
+    "NOTCH_BUDGET",
+    "STRICT_BUDGET",
+    "FitBudget",
+    "component_decompositions",
+    "notch_cuts",
+    "reflex_corners",
+    "split_triangles",
+]
 
 _F64 = NDArray[np.float64]
 _Chains = list[_F64]
 
 #: Strict triangle fits one component may cost (bounds the work on non-tags: text, markers).
 STRICT_BUDGET = 80
+#: Triangle fits of one component's search for slit (notch) cuts.
+NOTCH_BUDGET = 400
 
 
 @dataclass
@@ -89,7 +99,10 @@ def component_decompositions(
         add(opened)
     if not alternatives:
         return out
-    for alt in itertools.islice(split_triangles(pts, 0, True), 8):
+    # slit cuts: bounded like the strict fits (on the decoder's synthetic tag scenes the last
+    # decomposition came after at most 330 fits; the notched contour of a non-tag, e.g. an
+    # ArUco marker's cells, took thousands)
+    for alt in itertools.islice(split_triangles(pts, 0, True, budget=FitBudget(NOTCH_BUDGET)), 8):
         add(alt)
         if len(out) >= 4:
             break
@@ -184,16 +197,16 @@ def split_triangles(
         cuts = list(zip(pair_len[ok].tolist(), fi[ok].tolist(), fj[ok].tolist(), strict=True))
     cuts.sort()
     cuts = cuts[:5]
-    idx = np.arange(n)
-    for far in dfs[np.argsort(-dfs[:, 3])][: 12 if strict else 3, 2]:
-        i = int(far)
-        arc = np.abs(idx - i)
-        arc = np.minimum(arc, n - arc)
-        dist = np.hypot(flat[:, 0] - flat[i, 0], flat[:, 1] - flat[i, 1])
-        dist[arc < min_sep] = np.inf
-        j = int(np.argmin(dist))
-        if dist[j] <= 3.0:
-            cuts.append((float(dist[j]), i, j))
+    # all concave points at once: (F, n) arcs and distances to every contour point
+    fars = dfs[np.argsort(-dfs[:, 3])][: 12 if strict else 3, 2].astype(np.intp)
+    arc = np.abs(np.arange(n)[None, :] - fars[:, None])
+    arc = np.minimum(arc, n - arc)
+    dist = np.hypot(flat[None, :, 0] - flat[fars, 0, None], flat[None, :, 1] - flat[fars, 1, None])
+    dist[arc < min_sep] = np.inf
+    nearest = dist.argmin(axis=1)
+    for i, j, dj in zip(fars.tolist(), nearest.tolist(), dist[np.arange(len(fars)), nearest].tolist(), strict=True):
+        if dj <= 3.0:
+            cuts.append((dj, i, j))
     if notch:
         cuts += notch_cuts(flat, dfs, min_sep)
     tried: set[tuple[int, int]] = set()
@@ -296,37 +309,47 @@ def notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[tuple[float,
     reach = float(np.hypot(*size))
     steps = np.arange(1.0, reach, 0.5)
     out: list[tuple[float, int, int]] = []
-    idx = np.arange(n)
     walls = max(3, min(10, n // 24))
-    for s_, e_, far, _depth in dfs[np.argsort(-dfs[:, 3])][:4]:
-        i = int(far)
-        p = flat[i]
-        u1 = flat[(i - walls) % n] - p
-        u2 = flat[(i + walls) % n] - p
+    # the rays (mouth direction, then bisector, per defect), marched all at once
+    origin: list[int] = []
+    dirs: list[NDArray[np.float64]] = []
+    for s_, e_, far, _depth in dfs[np.argsort(-dfs[:, 3])][:4].tolist():
+        p = flat[far]
+        u1 = flat[(far - walls) % n] - p
+        u2 = flat[(far + walls) % n] - p
         bis = -(u1 / max(float(np.hypot(*u1)), 1e-9) + u2 / max(float(np.hypot(*u2)), 1e-9))
-        mouth = p - 0.5 * (flat[int(s_)] + flat[int(e_)])
-        arc = np.abs(idx - i)
-        arc = np.minimum(arc, n - arc)
+        mouth = p - 0.5 * (flat[s_] + flat[e_])
         for d in (mouth, bis):
             ln = float(np.hypot(*d))
-            if ln < 1e-6:
-                continue
-            d = d / ln
-            ray = p + steps[:, None] * d
-            rc = np.round(ray - lo).astype(np.int64)
-            ok = (rc[:, 0] >= 0) & (rc[:, 1] >= 0) & (rc[:, 0] < size[0]) & (rc[:, 1] < size[1])
-            inside = np.zeros(len(steps), dtype=bool)
-            inside[ok] = mask[rc[ok, 1], rc[ok, 0]] > 0
-            outside = np.nonzero(~inside)[0]
-            last = (int(outside[0]) if len(outside) else len(steps)) - 1
-            if last < 2:
-                continue
-            exit_pt = ray[last]
-            dist = np.linalg.norm(flat - exit_pt, axis=1)
-            near = (dist <= max(3.0, 0.08 * steps[last])) & (arc >= min_sep)
-            if not near.any():
-                continue
-            along = np.where(near, (flat - p) @ d, -np.inf)
-            j = int(np.argmax(along))
+            if ln >= 1e-6:
+                origin.append(far)
+                dirs.append(d / ln)
+    if not dirs:
+        return out
+    start = flat[origin]  # (R, 2)
+    unit = np.array(dirs)  # (R, 2)
+    rays = start[:, None, :] + steps[None, :, None] * unit[:, None, :]  # (R, S, 2)
+    rc = np.round(rays - lo).astype(np.int64)
+    ok = (rc[..., 0] >= 0) & (rc[..., 1] >= 0) & (rc[..., 0] < size[0]) & (rc[..., 1] < size[1])
+    inside = np.zeros(ok.shape, dtype=bool)
+    inside[ok] = mask[rc[..., 1][ok], rc[..., 0][ok]] > 0
+    leaves = ~inside
+    # the last step inside: just before the first step outside (or the last step)
+    lasts = np.where(leaves.any(axis=1), leaves.argmax(axis=1), len(steps)) - 1
+    keep = np.nonzero(lasts >= 2)[0]
+    if len(keep) == 0:
+        return out
+    lasts_k = lasts[keep]
+    exits = rays[keep, lasts_k]  # (K, 2): the last point inside along each kept ray
+    fars = np.asarray(origin)[keep]
+    dist = np.sqrt(((flat[None, :, :] - exits[:, None, :]) ** 2).sum(axis=2))  # (K, n)
+    arc = np.abs(np.arange(n)[None, :] - fars[:, None])
+    arc = np.minimum(arc, n - arc)
+    near = (dist <= np.maximum(3.0, 0.08 * steps[lasts_k])[:, None]) & (arc >= min_sep)
+    rel = flat[None, :, :] - flat[fars][:, None, :]
+    along = rel[..., 0] * unit[keep, 0, None] + rel[..., 1] * unit[keep, 1, None]
+    best = np.where(near, along, -np.inf).argmax(axis=1)
+    for i, j, last, hit in zip(fars.tolist(), best.tolist(), lasts_k.tolist(), near.any(axis=1).tolist(), strict=True):
+        if hit:
             out.append((100.0 + float(steps[last]), i, j))
     return out

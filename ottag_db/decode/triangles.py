@@ -98,9 +98,11 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
     ic = max(hrange, key=vals.__getitem__)  # the first largest, as np.argmax
     sel = [int(ia), int(ib), ic]
     # grow to the largest-area hull triangle (a blunt short side can fool the farthest pair)
-    for _ in range(3):
+    for it in range(3):
         changed = False
         for r in range(3):
+            if r == 2 and it == 0 and not changed:
+                break  # corner 2 is already the farthest from the unchanged side 0–1
             vals = far_from(hpl[sel[(r + 1) % 3]], hpl[sel[(r + 2) % 3]])
             best = max(hrange, key=vals.__getitem__)
             if best != sel[r] and vals[best] > vals[sel[r]] + 1e-9:

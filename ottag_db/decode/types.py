@@ -61,7 +61,7 @@ REJECTION_REASONS: dict[RejectReason, str] = {
     "no_triangles": "no triangle was found inside the data area",
     "touches_border": "a component inside the data area touches its border",
     "non_triangle": "a component inside the data area is not a union of triangles",
-    "point_count": "the number of points is outside 3…8 or not held by the lookup",
+    "point_count": "the number of points is outside 3…9 or not held by the lookup",
     "general_position": "three detected points are (numerically) collinear",
     "low_margin": "the smallest point-to-line distance is below min_margin_px",
     "unknown_id": "the order type is not in the lookup",
@@ -72,7 +72,8 @@ REJECTION_REASONS: dict[RejectReason, str] = {
 
 #: The stages timed by :meth:`ottag_db.decode.Detector.detect_with_report`, in pipeline order.
 StageName = Literal[
-    "image", "candidates", "segmentation", "triangles", "refine", "cluster", "identify", "verify", "upsample"
+    "image", "candidates", "segmentation", "triangles", "refine", "cluster", "identify", "verify", "upsample",
+    "rectify",
 ]
 STAGES: tuple[StageName, ...] = get_args(StageName)
 
@@ -100,7 +101,11 @@ class Detection:
       the image, normalised so ``H[2, 2] = 1``; None when no realization was available;
     - ``reprojection_error_px``: largest distance between a detected point and its
       realization point mapped by ``homography`` (None without a homography);
-    - ``margin_px``: smallest distance from a detected point to a line through two others.
+    - ``margin_px``: smallest distance from a detected point to a line through two others;
+    - ``corrected_flips``: None for a reading with ``margin_px >= min_margin_px``; for a
+      soft-decoded one (margin below it, see :mod:`ottag_db.decode.soft`) the number of its
+      near-collinear triples whose orientation was reversed to reach the ID (0: the reading
+      as measured, confirmed against every reversal).
     """
 
     lambda_text: str
@@ -114,6 +119,7 @@ class Detection:
     homography: _F64 | None
     reprojection_error_px: float | None
     margin_px: float
+    corrected_flips: int | None = None
 
     @property
     def center(self) -> tuple[float, float]:
@@ -189,6 +195,32 @@ class DetectorParams:
       mean side (the tag is placed by an affine map, so the square becomes a parallelogram);
     - ``allow_unknown``: also report order types missing from the lookup (IDs without
       ``order_type_id``; with ``verify`` they cannot be verified and are reported unverified).
+    - ``rectify``: read a foreshortened candidate that failed after its quad was found again
+      in a fronto-parallel, upsampled view of its data area (:mod:`~ottag_db.decode.rectify`;
+      the points are identified and verified in frame pixels as usual);
+      ``rectify_max_ratio``: only quads foreshortened to at most this ratio are retried (see
+      :func:`~ottag_db.decode.candidates.squeeze`; 0.5: a tilt beyond about 60°);
+      ``layout_check_ratio``: on quads foreshortened to at most this ratio, the detected
+      triangles must be a stored layout of the ID (when the lookup has layouts): at grazing
+      views a vertex lost at a sliver tip can leave a set that fits another order type within
+      the bound (8-point tags read as 6 or 7 points at 82–85°, HEAD's decoder, benchmarks/
+      decode_sweeps.py); tags drawn with other triangles are then read only at milder tilts
+      (0: never checked).
+
+    Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
+    ``min_margin_px``:
+
+    - ``soft_max_flips``: the reading and every reading with up to this many of its ambiguous
+      triples (a point nearer than ``min_margin_px`` to the line of the other two) reversed
+      are looked up and verified (0: no soft decoding, such readings are rejected
+      ``low_margin``); 2 because a point near the crossing of two lines makes two triples
+      ambiguous at once, and the truth must be among the candidates for the rule to be safe;
+    - ``soft_max_triples``: with more ambiguous triples the reading is rejected ``low_margin``
+      (6 gives at most 1 + 6 + 15 candidates; more near-collinear triples mean the points
+      are too close to call, and more than two flips may be wrong);
+    - ``soft_min_fit_gap``: a candidate is accepted only when it alone verifies and its fit
+      error is below every other candidate's, and below the reprojection bound, by at least
+      this fraction of the bound (see the value's comment).
 
     Raises :class:`~ottag_db.errors.UsageError` for invalid settings.
     """
@@ -213,6 +245,18 @@ class DetectorParams:
     check_quad: bool = True
     max_quad_error: float = 0.25
     allow_unknown: bool = False
+    rectify: bool = True
+    rectify_max_ratio: float = 0.5
+    layout_check_ratio: float = 0.5
+    soft_max_flips: int = 2
+    soft_max_triples: int = 6
+    #: 0.35 of the bound (0.53 px at the 1.5 px floor, 2–5 times the 0.1–0.3 px vertex noise).
+    #: Measured on small tilted tags (the scenes of benchmarks/soft_decoding.py, 2 × 700 frames,
+    #: complete lookup and a D = 3 dictionary): with no lead the rule accepted 1 wrong ID among
+    #: 217 soft decodings; another 600 frames gave one wrong ID at a lead of 0.29 (an 8-point tag
+    #: that lost two vertices, read as 6 points, a lone candidate fitting at 0.71 of the bound);
+    #: 0.35 keeps 202 of the 216 correct ones.
+    soft_min_fit_gap: float = 0.35
 
     def __post_init__(self) -> None:
         pols: Any = self.polarities
@@ -225,7 +269,10 @@ class DetectorParams:
                 raise UsageError(f"unknown polarity {p!r}: use 'normal' and/or 'inverted'")
         if not (self.use_otsu or self.use_adaptive):
             raise UsageError("at least one of use_otsu and use_adaptive must be True")
-        for name in ("min_quad_area_px", "min_quad_side_px", "min_margin_px", "max_reproj_px"):
+        for name in (
+            "min_quad_area_px", "min_quad_side_px", "min_margin_px", "max_reproj_px",
+            "soft_max_flips", "soft_max_triples", "soft_min_fit_gap",
+        ):  # fmt: skip
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must not be negative")
 

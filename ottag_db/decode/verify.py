@@ -13,10 +13,12 @@ from ottag_db.core.lookup import LookupEntry
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
 __all__ = [
+    "Assessment",
     "LineSystem",
     "Model",
     "SideLines",
     "apply_homography",
+    "assess",
     "homography_from_lines",
     "line_system",
     "map_corners_back",
@@ -223,11 +225,26 @@ class _Fit:
     mapped: _F64
 
 
+@dataclass(frozen=True)
+class Assessment:
+    """The verification of one reading: its ``result`` and the figures soft decoding compares.
+
+    ``error`` (px) is the fit error the reading is judged on: the smallest largest point–line
+    distance over its (realization, labeling) fits whose corners map back to a parallelogram
+    (any fit without ``check_quad``); ``inf`` when there is none. ``bound`` is the
+    reprojection bound of the candidate (px).
+    """
+
+    result: Detection | Rejection
+    error: float
+    bound: float
+
+
 def verify(
     entry: LookupEntry,
     pts: _F64,
     lines: SideLines,
-    minimal: list[tuple[int, ...]],
+    minimal: Sequence[tuple[int, ...]],
     corners: _F64,
     quad: Quad,
     margin: float,
@@ -235,6 +252,24 @@ def verify(
     params: DetectorParams,
 ) -> Detection | Rejection:
     """Check a reading against the stored realizations of its order type.
+
+    The :attr:`Assessment.result` of :func:`assess`.
+    """
+    return assess(entry, pts, lines, minimal, corners, quad, margin, lambda_text, params).result
+
+
+def assess(
+    entry: LookupEntry,
+    pts: _F64,
+    lines: SideLines,
+    minimal: Sequence[tuple[int, ...]],
+    corners: _F64,
+    quad: Quad,
+    margin: float,
+    lambda_text: str,
+    params: DetectorParams,
+) -> Assessment:
+    """Check a reading against the stored realizations of its order type, with its fit error.
 
     Every (realization, minimal labeling) is mapped onto the points by a homography fitted to
     the side lines; with ``params.verify`` the best fit must stay within the reprojection
@@ -263,8 +298,9 @@ def verify(
 
     Returns
     -------
-    Detection or Rejection
-        ``"verification"`` or ``"quad_inconsistent"`` rejections.
+    Assessment
+        The detection, or a ``"verification"`` or ``"quad_inconsistent"`` rejection, with the
+        fit error and the bound.
     """
     p = params
     side = math.sqrt(quad.area)
@@ -273,30 +309,29 @@ def verify(
     fits = [] if system is None else _fits(entry, pts, system, minimal, corners)
     if not fits:
         if p.verify:
-            return Rejection("verification", "no realization", lambda_text)
-        return Detection(
+            return Assessment(Rejection("verification", "no realization", lambda_text), math.inf, bound)
+        unverified = Detection(
             lambda_text, entry.k, entry.order_type_id, entry.tag, quad.polarity, pts[list(minimal[0])], None,
             corners, None, None, margin,
         )  # fmt: skip
+        return Assessment(unverified, math.inf, bound)
+    square = [f for f in fits if f.par <= p.max_quad_error] if p.check_quad else fits
+    error = min((f.err for f in square), default=math.inf)
     quad_w = 1.0 if p.check_quad else 0.0
     if p.verify:
         passing = [f for f in fits if f.err <= bound]
         if not passing:
-            return Rejection(
-                "verification", f"reprojection error {min(f.err for f in fits):.2f} px > {bound:.2f} px", lambda_text
-            )
+            detail = f"reprojection error {min(f.err for f in fits):.2f} px > {bound:.2f} px"
+            return Assessment(Rejection("verification", detail, lambda_text), error, bound)
         if p.check_quad:
             fits = [f for f in passing if f.par <= p.max_quad_error]
             if not fits:
-                return Rejection(
-                    "quad_inconsistent",
-                    f"parallelogram error {min(f.par for f in passing):.3f} of the side",
-                    lambda_text,
-                )
+                detail = f"parallelogram error {min(f.par for f in passing):.3f} of the side"
+                return Assessment(Rejection("quad_inconsistent", detail, lambda_text), error, bound)
         else:
             fits = passing
     best = min(fits, key=lambda f: f.err / bound + quad_w * min(f.par, 1e6) / max(p.max_quad_error, 1e-9))
-    return Detection(
+    detection = Detection(
         lambda_text=lambda_text,
         k=entry.k,
         order_type_id=entry.order_type_id,
@@ -309,10 +344,11 @@ def verify(
         reprojection_error_px=float(np.sqrt(((best.mapped - best.dst) ** 2).sum(axis=1)).max()),
         margin_px=margin,
     )
+    return Assessment(detection, error, bound)
 
 
 def _fits(
-    entry: LookupEntry, pts: _F64, system: LineSystem, minimal: list[tuple[int, ...]], corners: _F64
+    entry: LookupEntry, pts: _F64, system: LineSystem, minimal: Sequence[tuple[int, ...]], corners: _F64
 ) -> list[_Fit]:
     """Every (realization, minimal labeling) fit whose homography maps the realization and the
     corners back to finite points."""

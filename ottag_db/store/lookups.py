@@ -13,7 +13,14 @@ from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.errors import NotFoundError
 from ottag_db.store.db import Database
 from ottag_db.store.dictionaries import find_dictionary
-from ottag_db.store.models import DictionaryTag, FlipEdgeRow, OrderType, Realization, coordinates_from_blob
+from ottag_db.store.models import (
+    DictionaryTag,
+    FlipEdgeRow,
+    LayoutRow,
+    OrderType,
+    Realization,
+    coordinates_from_blob,
+)
 
 __all__ = ["MemberGeometry", "dictionary_lookup", "load_lookup", "member_lookup", "neighbour_members"]
 
@@ -32,7 +39,8 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
     -------
     MemoryLookup
         One :class:`LookupEntry` per order type; its realizations (best MP first) in
-        canonical label order (row ``l`` = point with label ``l``), as the decoder needs.
+        canonical label order (row ``l`` = point with label ``l``), as the decoder needs,
+        with their stored layouts (triangles in canonical labels).
 
     Raises
     ------
@@ -47,13 +55,19 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
         if not ots:
             raise NotFoundError("the database holds no order types: run `ottag-db import` first")
         reals: dict[int, list[NDArray[np.float64]]] = {}
-        rq = select(Realization.order_type_id, Realization.coordinates, Realization.canonical_labeling).order_by(
-            Realization.order_type_id, Realization.mp.desc(), Realization.id
+        layouts: dict[int, list[_Layout]] = {}
+        rq = (
+            select(
+                Realization.order_type_id, Realization.coordinates, Realization.canonical_labeling, LayoutRow.triangles
+            )
+            .outerjoin(LayoutRow, LayoutRow.realization_id == Realization.id)
+            .order_by(Realization.order_type_id, Realization.mp.desc(), Realization.id)
         )
         if ks:
             rq = rq.join(OrderType, OrderType.id == Realization.order_type_id).where(OrderType.k.in_(list(ks)))
-        for ot_id, blob, labeling in s.execute(rq):
+        for ot_id, blob, labeling, triangles in s.execute(rq):
             reals.setdefault(ot_id, []).append(_canonical_points(blob, labeling))
+            layouts.setdefault(ot_id, []).append(_canonical_layout(triangles, labeling))
     entries = [
         LookupEntry(
             lambda_text=text,
@@ -61,6 +75,7 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
             order_type_id=ot_id,
             unique_min=bool(uniq),
             realizations=tuple(reals.get(ot_id, [])),
+            layouts=_known(layouts.get(ot_id, [])),
         )
         for ot_id, k, text, uniq in ots
     ]
@@ -71,7 +86,9 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
 class MemberGeometry:
     """What the decoder needs of one dictionary member: its tag number and polarity, its order
     type and the realizations it is verified against (``(k, 2)`` float64, rows in canonical
-    label order, grid units, screen convention)."""
+    label order, grid units, screen convention) with, when known, the triangles printed for
+    each (``layouts[r]`` for ``realizations[r]``, triples of canonical labels; empty when
+    unknown)."""
 
     number: int
     polarity: str
@@ -80,6 +97,7 @@ class MemberGeometry:
     order_type_id: int
     unique_min: bool
     realizations: tuple[NDArray[np.float64], ...]
+    layouts: tuple[tuple[tuple[int, int, int], ...], ...] = ()
 
 
 def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
@@ -105,9 +123,12 @@ def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
     entries = []
     for text, group in grouped.items():
         reals: dict[bytes, NDArray[np.float64]] = {}
+        lays: dict[bytes, _Layout] = {}
         for m in group:
-            for r in m.realizations:
-                reals.setdefault(np.ascontiguousarray(r, dtype=np.float64).tobytes(), r)
+            for i, r in enumerate(m.realizations):
+                key = np.ascontiguousarray(r, dtype=np.float64).tobytes()
+                reals.setdefault(key, r)
+                lays.setdefault(key, m.layouts[i] if i < len(m.layouts) else ())
         first = group[0]
         entries.append(
             LookupEntry(
@@ -118,6 +139,7 @@ def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
                 realizations=tuple(reals.values()),
                 tag=min(m.number for m in group),
                 extra={"tags": {m.polarity: m.number for m in group}, "dictionary": name},
+                layouts=_known([lays[key] for key in reals]),
             )
         )
     return MemoryLookup(entries)
@@ -169,34 +191,66 @@ def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
         ).all()
         pinned = {int(r[2]) for r in rows if r[2] is not None}
         loose = {int(r[3]) for r in rows if r[2] is None}
-        by_id: dict[int, NDArray[np.float64]] = {}
-        by_type: dict[int, list[NDArray[np.float64]]] = {}
-        rq = select(Realization.id, Realization.order_type_id, Realization.coordinates, Realization.canonical_labeling)
+        by_id: dict[int, tuple[NDArray[np.float64], _Layout]] = {}
+        by_type: dict[int, list[tuple[NDArray[np.float64], _Layout]]] = {}
+        rq = select(
+            Realization.id,
+            Realization.order_type_id,
+            Realization.coordinates,
+            Realization.canonical_labeling,
+            LayoutRow.triangles,
+        ).outerjoin(LayoutRow, LayoutRow.realization_id == Realization.id)
         for part in _chunks(sorted(pinned)):
-            for rid, _ot, blob, labeling in s.execute(rq.where(Realization.id.in_(part))):
-                by_id[int(rid)] = _canonical_points(blob, labeling)
+            for rid, _ot, blob, labeling, tris in s.execute(rq.where(Realization.id.in_(part))):
+                by_id[int(rid)] = (_canonical_points(blob, labeling), _canonical_layout(tris, labeling))
         for part in _chunks(sorted(loose)):
             q = rq.where(Realization.order_type_id.in_(part)).order_by(Realization.mp.desc(), Realization.id)
-            for _rid, ot, blob, labeling in s.execute(q):
-                by_type.setdefault(int(ot), []).append(_canonical_points(blob, labeling))
-    members = [
-        MemberGeometry(
-            number=int(number),
-            polarity=str(polarity),
-            lambda_text=str(text),
-            k=int(k),
-            order_type_id=int(ot_id),
-            unique_min=bool(uniq),
-            realizations=(by_id[int(rid)],) if rid is not None else tuple(by_type.get(int(ot_id), [])),
+            for _rid, ot, blob, labeling, tris in s.execute(q):
+                by_type.setdefault(int(ot), []).append(
+                    (_canonical_points(blob, labeling), _canonical_layout(tris, labeling))
+                )
+    members = []
+    for number, polarity, pinned_id, ot_id, k, text, uniq in rows:
+        geoms = [by_id[int(pinned_id)]] if pinned_id is not None else by_type.get(int(ot_id), [])
+        members.append(
+            MemberGeometry(
+                number=int(number),
+                polarity=str(polarity),
+                lambda_text=str(text),
+                k=int(k),
+                order_type_id=int(ot_id),
+                unique_min=bool(uniq),
+                realizations=tuple(g[0] for g in geoms),
+                layouts=_known([g[1] for g in geoms]),
+            )
         )
-        for number, polarity, rid, ot_id, k, text, uniq in rows
-    ]
     return member_lookup(name, members)
 
 
 def _chunks(ids: Sequence[int], size: int = 5000) -> Iterator[Sequence[int]]:
     for start in range(0, len(ids), size):
         yield ids[start : start + size]
+
+
+_Layout = tuple[tuple[int, int, int], ...]
+
+
+def _canonical_layout(triangles: str | None, labeling: str) -> _Layout:
+    """Stored triangles (``"a,b,c;d,e,f"``, file indices) as triples of canonical labels; ``()``
+    for a realization without a stored layout."""
+    if not triangles:
+        return ()
+    label_of = {int(c): label for label, c in enumerate(labeling)}
+    out = []
+    for tri in triangles.split(";"):
+        a, b, c = (label_of[int(v)] for v in tri.split(","))
+        out.append((a, b, c))
+    return tuple(out)
+
+
+def _known(layouts: Sequence[_Layout]) -> tuple[_Layout, ...]:
+    """The layouts of an entry's realizations, or ``()`` when none is known."""
+    return tuple(layouts) if any(layouts) else ()
 
 
 def _canonical_points(blob: bytes, labeling: str) -> NDArray[np.float64]:

@@ -5,7 +5,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ottag_db.decode.splitting import FitBudget, component_decompositions, reflex_corners, split_triangles
+from ottag_db.decode.splitting import (
+    NOTCH_BUDGET,
+    FitBudget,
+    component_decompositions,
+    notch_cuts,
+    reflex_corners,
+    split_triangles,
+)
 
 
 def _contour(*polys: np.ndarray, size: int = 240) -> np.ndarray:
@@ -50,3 +57,30 @@ def test_reflex_corners_of_an_l_shape() -> None:
     rows = reflex_corners(pts)
     assert rows.shape[1] == 4 and len(rows) == 1
     assert np.abs(pts[rows[0, 2]] - [80, 80]).max() <= 1
+
+
+def test_notch_cut_follows_a_slit_to_the_shared_tip() -> None:
+    # two triangles sharing the tip (120, 200) at a narrow angle; the blur has closed the slit
+    # between them from y = 120 on, leaving one concave point (the slit bottom)
+    pts = _contour(np.array([[20, 20], [110, 20], [118, 120], [130, 20], [220, 20], [120, 200]]))
+    flat = pts.astype(np.float64)
+    c = pts.reshape(-1, 1, 2).astype(np.int32)
+    hull = np.sort(cv2.convexHull(c, returnPoints=False).ravel()).reshape(-1, 1)
+    dfs = cv2.convexityDefects(c, hull.astype(np.int32)).reshape(-1, 4)
+    cuts = notch_cuts(flat, dfs[dfs[:, 3] >= 180], 8)
+    # from the slit bottom on along the slit to the shared tip
+    slit = [(i, j) for _, i, j in cuts if np.abs(flat[i] - (118, 116)).max() <= 4]
+    assert slit, "the slit gives a cut"
+    assert all(np.abs(flat[j] - (120, 200)).max() <= 6 for _, j in slit)
+    halves = list(split_triangles(pts, 0, True))
+    assert halves and len(halves[0]) == 6  # the cut splits the union into the two triangles
+
+
+def test_notch_search_is_bounded() -> None:
+    # a comb (an ArUco-like blob of cells) is no union of triangles; its slit search must stop
+    # at the fit budget instead of trying every cut of every half
+    teeth = [np.array([[x, 20], [x + 12, 20], [x + 12, 200], [x, 200]]) for x in range(20, 220, 24)]
+    pts = _contour(np.array([[20, 190], [220, 190], [220, 220], [20, 220]]), *teeth)
+    budget = FitBudget(NOTCH_BUDGET)
+    assert list(split_triangles(pts, 0, True, budget=budget)) == []
+    assert 0 <= budget.remaining < NOTCH_BUDGET
