@@ -1,9 +1,16 @@
-"""Replay the paper's Sec. 5.1 / 5.2 projection experiments (Tables 5 and 6) on point-set files."""
+"""Replay the paper's Sec. 5.1 / 5.2 projection experiments (Tables 5 and 6) on point-set files.
+
+The bundled (and, with ``OTTAG_AICHHOLZER_DIR``, the reference) files of each ``--k``; any
+other file with ``--file [K=]PATH``, e.g. nine points beside the paper's k = 7, 8:
+
+    python benchmarks/projection_robustness.py --k 7 8 --file /tmp/k9/provisional-k09.b08 --sample 2000
+"""
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import time
 from collections.abc import Iterator
@@ -152,6 +159,17 @@ def _load(directory: Path, k: int, reference: bool) -> NDArray[np.int64] | None:
     return read_point_file(path, k)
 
 
+def _file_arg(text: str) -> tuple[int, Path]:
+    """``K=PATH`` or ``PATH`` whose name ends in a two-digit point count (``…k09.b08``)."""
+    if "=" in text and text.split("=", 1)[0].isdigit():
+        k, path = text.split("=", 1)
+        return int(k), Path(path)
+    m = re.search(r"(\d{2})\.b(08|16)$", text)
+    if m is None:
+        raise argparse.ArgumentTypeError(f"{text}: give K=PATH (the name does not end in NN.b08)")
+    return int(m.group(1)), Path(text)
+
+
 def _row(label: str, values: list[str]) -> str:
     return f"{label:<28}" + "".join(f"{v:>16}" for v in values)
 
@@ -161,9 +179,19 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--reference-dir", type=Path, default=os.environ.get("OTTAG_AICHHOLZER_DIR"))
     parser.add_argument("--data-dir", type=Path, default=Path(__file__).resolve().parents[1] / "data")
-    parser.add_argument("--k", type=int, nargs="+", default=[7, 8], choices=[3, 4, 5, 6, 7, 8])
+    parser.add_argument("--k", type=int, nargs="+", default=[7, 8], choices=[3, 4, 5, 6, 7, 8, 9])
+    parser.add_argument(
+        "--file",
+        type=_file_arg,
+        action="append",
+        default=[],
+        help="[K=]PATH: also sweep this point file (e.g. a nine-point file: --k 9 --file …-k09.b08)",
+    )
     parser.add_argument("--limit", type=int, default=None, help="only the first N sets of each file")
+    parser.add_argument("--sample", type=int, default=None, help="only N sets of each file, evenly spaced")
     args = parser.parse_args(argv)
+    files = dict(args.file)
+    ks = sorted(set(args.k) | set(files))
     sources: list[tuple[str, Path, bool]] = []
     if args.reference_dir is not None:
         sources.append(("reference", Path(args.reference_dir), True))
@@ -177,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\n{table}: {len(sweep)} views per set")
         header = []
         lines: dict[str, list[str]] = {"sets": [], "images": [], "successes": [], "success %": []}
-        for k in args.k:
+        for k in ks:
             if k in paper:
                 images, succ = paper[k]
                 header.append(f"paper k={k}")
@@ -185,12 +213,15 @@ def main(argv: list[str] | None = None) -> int:
                 lines["images"].append(str(images))
                 lines["successes"].append(str(succ))
                 lines["success %"].append(f"{100.0 * succ / images:.2f}")
-            for name, directory, reference in sources:
-                pts = _load(directory, k, reference)
+            given = [("file", files[k], False)] if k in files else []
+            for name, where, reference in sources + given:
+                pts = read_point_file(where, k) if name == "file" else _load(where, k, reference)
                 if pts is None:
                     continue
                 if args.limit:
                     pts = pts[: args.limit]
+                if args.sample and args.sample < len(pts):
+                    pts = pts[np.linspace(0, len(pts) - 1, args.sample).round().astype(np.int64)]
                 t0 = time.perf_counter()
                 res = run_sweep(pts, sweep)
                 print(f"  {name} k={k}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)

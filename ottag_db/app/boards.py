@@ -371,8 +371,8 @@ def _parse_tag(i: int, raw: Any) -> BoardTag:
     if raw["polarity"] not in POLARITIES:
         raise ValueError(f"polarity must be normal or inverted, got {raw['polarity']!r}")
     points = _xy_list(raw["points_mm"], None, "points_mm")
-    if not 3 <= len(points) <= 8:
-        raise ValueError(f"has {len(points)} points; a tag has 3 … 8")
+    if not 3 <= len(points) <= 9:
+        raise ValueError(f"has {len(points)} points; a tag has 3 … 9")
     tag = BoardTag(
         row=int(raw["row"]),
         col=int(raw["col"]),

@@ -43,7 +43,7 @@ __all__ = [
 FOUR_POINT_NOTE = (
     "order types of 4 points cannot be drawn as tags: the layout rules (every point a triangle vertex, "
     'triangles empty, disjoint, no shared edge; README "Tags and tag size") have no solution for 4 points '
-    "- use k = 3 or 5 … 8"
+    "- use k = 3 or 5 … 9"
 )
 
 

@@ -27,7 +27,7 @@ def board_group() -> None:
 @click.option("--cols", type=click.IntRange(min=1), required=True, help="Columns of tags.")
 @click.option("--tag-size", default="40mm", show_default=True, help=TAG_SIZE_HELP + ".")
 @click.option("--spacing", default="10mm", show_default=True, help="White paper between neighbouring data areas.")
-@click.option("--k", type=click.IntRange(3, 8), default=8, show_default=True, help="Point count of the default tags.")
+@click.option("--k", type=click.IntRange(3, 9), default=8, show_default=True, help="Point count of the default tags.")
 @click.option("--dictionary", default=None, metavar="NAME", help="Take the tags from this dictionary (number order).")
 @click.option("--page", default="A4", show_default=True, help="A4, A3, Letter, A4-landscape or WxH with a unit.")
 @db_options

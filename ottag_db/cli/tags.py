@@ -14,7 +14,7 @@ __all__ = ["export_cmd", "render_cmd"]
 
 @click.command("export")
 @click.argument("out", type=click.Path(path_type=Path))
-@click.option("--k", "ks", type=click.IntRange(3, 8), multiple=True, help="Only these point counts (repeatable).")
+@click.option("--k", "ks", type=click.IntRange(3, 9), multiple=True, help="Only these point counts (repeatable).")
 @click.option("--min-mp", type=click.FloatRange(min=0), default=None, help="Only MP >= V (grid units, as Table 7).")
 @click.option("--matchable", is_flag=True, help="Only unique-minimum order types (point matching).")
 @click.option("--ids", "ids", multiple=True, metavar="ID", help="Only these IDs (k:digits or database id; repeatable).")

@@ -42,14 +42,14 @@ __all__ = [
 
 #: Smallest and largest number of points a layout is computed for (k = 4 is refused, see below).
 LAYOUT_MIN_K = 3
-LAYOUT_MAX_K = 8
+LAYOUT_MAX_K = 9
 
 Triangle = tuple[int, int, int]
 
 _K4_MESSAGE = (
     "order types with 4 points cannot be drawn as tags: any two triangles on 4 points share an "
     "edge (convex position), or the only triangle holding all points is not empty (one point "
-    "inside), so no layout satisfies the tag rules (use k = 3 or 5 … 8)"
+    "inside), so no layout satisfies the tag rules (use k = 3 or 5 … 9)"
 )
 
 
@@ -103,7 +103,7 @@ def layout_supported(k: int) -> bool:
     Returns
     -------
     bool
-        True for k = 3 and 5 … 8 (k = 4 cannot be drawn as a tag).
+        True for k = 3 and 5 … 9 (k = 4 cannot be drawn as a tag).
     """
     return LAYOUT_MIN_K <= k <= LAYOUT_MAX_K and k != 4
 
@@ -151,15 +151,33 @@ def _solve_more(pts: NDArray[np.float64], m_start: int) -> list[Layout]:
         score = np.where(valid, layout_score(angle, side / diam, gap / diam, shared), -np.inf)
         best = score.argmax(axis=1)
         found = valid[np.arange(len(todo)), best]
-        for row in np.flatnonzero(found):
-            c = int(best[row])
-            result[int(todo[row])] = _make_layout(
-                tb.tris[cov.cands[c]],
-                float(angle[row, c]),
-                float(side[row, c]),
-                float(gap[row, c]),
-                float(shared[row, c]),
-                float(sub.diameter[row]),
+        rows = np.flatnonzero(found)
+        cols = best[rows]
+        # one conversion per figure for the whole batch (the score is the same float the
+        # scalar path of layout_quality computes: elementwise, same reductions)
+        figures = zip(
+            cols.tolist(),
+            angle[rows, cols].tolist(),
+            side[rows, cols].tolist(),
+            gap[rows, cols].tolist(),
+            shared[rows, cols].tolist(),
+            sub.diameter[rows].tolist(),
+            score[rows, cols].tolist(),
+            strict=True,
+        )
+        tris_of: dict[int, tuple[Triangle, ...]] = {}
+        for row, (c, ang, sd, gp, sh, dm, sc) in zip(rows.tolist(), figures, strict=True):
+            if c not in tris_of:
+                # covers list ascending triangle ids of sorted triples: already in layout order
+                tris_of[c] = tuple((int(t[0]), int(t[1]), int(t[2])) for t in tb.tris[cov.cands[c]].tolist())
+            result[int(todo[row])] = Layout(
+                triangles=tris_of[c],
+                min_angle_deg=ang,
+                min_side=sd,
+                min_gap=None if math.isinf(gp) else gp,
+                min_shared_gap_deg=None if math.isinf(sh) else sh,
+                diameter=dm,
+                score=sc,
             )
         todo = todo[~found]
         m += 1
@@ -169,14 +187,15 @@ def _solve_more(pts: NDArray[np.float64], m_start: int) -> list[Layout]:
 def compute_layouts(
     points_batch: ArrayLike, progress: ProgressCallback | None = None, *, chunk: int = 256
 ) -> list[Layout]:
-    """Best layout of each of ``B`` point sets given as ``(B, k, 2)`` (3 ≤ k ≤ 8, k ≠ 4).
+    """Best layout of each of ``B`` point sets given as ``(B, k, 2)`` (3 ≤ k ≤ 9, k ≠ 4).
 
     Exhaustive over covers of ``m = ⌈k/3⌉, ⌈k/3⌉ + 1, …`` empty triangles (vertex-level
     candidate covers are tabulated once per (k, m); per set only emptiness, crossings and
     the figures are evaluated, batched over ``chunk`` sets). Among valid covers with the
     fewest triangles the highest :attr:`Layout.score` wins; ties go to the lexicographically
     first cover, so results are deterministic. ``progress(done, total)`` is called after each
-    chunk.
+    chunk. Nine points always get three vertex-disjoint triangles (sorted by x, consecutive
+    triples are empty and disjoint), so k = 9 evaluates the 280 partitions into triples only.
 
     Parameters
     ----------
@@ -195,7 +214,7 @@ def compute_layouts(
     Raises
     ------
     ExportError
-        For k = 4 or k outside 3 … 8.
+        For k = 4 or k outside 3 … 9.
     GeneralPositionError
         For a set with a repeated point or a collinear triple.
     """
@@ -256,8 +275,8 @@ def layout_quality(points: ArrayLike, triangles: Sequence[Sequence[int]]) -> Lay
     index = {tuple(int(v) for v in t): n for n, t in enumerate(tb.tris)}
     ids = np.array([index[t] for t in tris], dtype=np.intp)
     geo = SetGeometry(pts)
-    angle = float(geo.tri_angle[0, ids].min())
-    side = float(geo.tri_side[0, ids].min())
+    angle = float(geo.tri_angle[ids, 0].min())
+    side = float(geo.tri_side[ids, 0].min())
     pairs = np.array(list(combinations(ids.tolist(), 2)), dtype=np.intp).reshape(-1, 2)
     shared = np.array(
         [next(iter(set(tb.tris[a].tolist()) & set(tb.tris[b].tolist())), -1) for a, b in pairs],

@@ -202,11 +202,13 @@ class SetGeometry:
     pts : ndarray of float64, shape (B, k, 2)
         The sets (any units; screen coordinates).
 
-    Attributes (``T`` triangles, ``E`` edges of :func:`index_tables`): ``empty`` ``(B, T)``
-    no other point inside or on; ``cross`` ``(B, E, E)`` proper crossing of two edges with
-    four distinct endpoints; ``diameter`` ``(B,)``; ``tri_side`` and ``tri_angle``
-    ``(B, T)`` shortest side and smallest angle (degrees); ``pt_seg`` ``(B, k, E)``
-    point-to-segment distances; ``direction`` ``(B, k, k)`` angle of ``v → p`` in degrees.
+    Every figure keeps the set axis **last** (index tables lead, so gathers by triangle or
+    edge copy contiguous rows of ``B`` values and reductions over them are elementwise):
+    ``empty`` ``(T, B)`` no other point inside or on (``T`` triangles, ``E`` edges of
+    :func:`index_tables`); ``cross`` ``(E, E, B)`` proper crossing of two edges with four
+    distinct endpoints; ``diameter`` ``(B,)``; ``tri_side`` and ``tri_angle`` ``(T, B)``
+    shortest side and smallest angle (degrees); ``pt_seg`` ``(k, E, B)`` point-to-segment
+    distances; ``direction`` ``(k, k, B)`` angle of ``v → p`` in degrees.
     """
 
     def __init__(self, pts: NDArray[np.float64]) -> None:
@@ -214,62 +216,64 @@ class SetGeometry:
         tb = index_tables(k)
         self.pts = pts
         self.tables = tb
-        d = orientation_tensor(pts)  # (B, k, k, k)
-        self.orient = d
+        d = np.ascontiguousarray(np.moveaxis(orientation_tensor(pts), 0, -1))  # (k, k, k, B)
         tris = tb.tris
         a, bb, c = tris[:, 0], tris[:, 1], tris[:, 2]
-        s1 = np.sign(d[:, a, bb, :])
-        s2 = np.sign(d[:, bb, c, :])
-        s3 = np.sign(d[:, c, a, :])
+        e = tb.edges
+        ea, eb = e[:, 0], e[:, 1]
+        side = d[ea, eb]  # (E, k, B): orientation of every point against every edge i < j
+        sign = np.sign(side)
+        s1 = sign[tb.tri_edges[:, 0]]  # (T, k, B): edge (a, b)
+        s2 = sign[tb.tri_edges[:, 1]]  # edge (b, c)
+        s3 = np.sign(d[c, a])
         inside = (s1 == s2) & (s2 == s3) & (s1 != 0)
         vert = np.zeros((len(tris), k), dtype=bool)
         vert[np.arange(len(tris))[:, None], tris] = True
-        inside &= ~vert[None]
-        self.empty = ~inside.any(axis=2)  # (B, T)
-        # proper crossings of edges with four distinct endpoints
-        e = tb.edges
-        ea, eb = e[:, 0], e[:, 1]
-        o1 = d[:, ea[:, None], eb[:, None], ea[None, :]]
-        o2 = d[:, ea[:, None], eb[:, None], eb[None, :]]
-        o3 = d[:, ea[None, :], eb[None, :], ea[:, None]]
-        o4 = d[:, ea[None, :], eb[None, :], eb[:, None]]
+        inside &= ~vert[:, :, None]
+        self.empty = ~inside.any(axis=1)  # (T, B)
+        # proper crossings of edges with four distinct endpoints: edge i separates the ends of
+        # edge j (sep[i, j]) and edge j those of edge i (the transpose)
+        sep = side[:, ea] * side[:, eb] < 0  # (E, E, B)
         distinct = (
             (ea[:, None] != ea[None, :])
             & (ea[:, None] != eb[None, :])
             & (eb[:, None] != ea[None, :])
             & (eb[:, None] != eb[None, :])
         )
-        self.cross = (o1 * o2 < 0) & (o3 * o4 < 0) & distinct[None]  # (B, E, E)
+        self.cross = sep & sep.transpose(1, 0, 2) & distinct[:, :, None]  # (E, E, B)
         # side lengths and angles
-        diff = pts[:, :, None, :] - pts[:, None, :, :]
-        dist = np.sqrt((diff**2).sum(axis=3))  # (B, k, k)
-        self.diameter = dist.reshape(b, -1).max(axis=1)
-        self.tri_side = np.minimum(np.minimum(dist[:, a, bb], dist[:, bb, c]), dist[:, a, c])  # (B, T)
+        px = np.ascontiguousarray(pts[:, :, 0].T)  # (k, B)
+        py = np.ascontiguousarray(pts[:, :, 1].T)
+        self._px, self._py = px, py
+        dx = px[:, None] - px[None, :]  # (k, k, B): p_i − p_j
+        dy = py[:, None] - py[None, :]
+        dist = np.sqrt(dx**2 + dy**2)
+        self.diameter = dist.reshape(k * k, b).max(axis=0)
+        self.tri_side = np.minimum(np.minimum(dist[a, bb], dist[bb, c]), dist[a, c])  # (T, B)
         self.tri_angle = np.minimum(np.minimum(self._angle(a, bb, c), self._angle(bb, c, a)), self._angle(c, a, bb))
-        # point-to-segment distances (B, k, E)
-        p = pts[:, :, None, :]
-        s0 = pts[:, ea][:, None]
-        sv = (pts[:, eb] - pts[:, ea])[:, None]
-        t = ((p - s0) * sv).sum(axis=3) / (sv**2).sum(axis=3)
+        # point-to-segment distances (k, E, B)
+        s0x, s0y = px[ea][None], py[ea][None]  # (1, E, B)
+        svx, svy = (px[eb] - px[ea])[None], (py[eb] - py[ea])[None]
+        qx, qy = px[:, None], py[:, None]  # (k, 1, B)
+        t = ((qx - s0x) * svx + (qy - s0y) * svy) / (svx**2 + svy**2)
         t = np.clip(t, 0.0, 1.0)
-        proj = s0 + t[..., None] * sv
-        self.pt_seg = np.sqrt(((p - proj) ** 2).sum(axis=3))
+        self.pt_seg = np.sqrt((qx - (s0x + t * svx)) ** 2 + (qy - (s0y + t * svy)) ** 2)
         # direction angle of v → p, degrees in [0, 360)
-        self.direction = np.degrees(np.arctan2(-diff[..., 1], -diff[..., 0])) % 360.0  # (B, v, p)
+        self.direction = np.degrees(np.arctan2(-dy, -dx)) % 360.0  # (v, p, B)
 
     def _angle(self, at: NDArray[np.intp], u: NDArray[np.intp], w: NDArray[np.intp]) -> NDArray[np.float64]:
-        p = self.pts
-        v1 = p[:, u] - p[:, at]
-        v2 = p[:, w] - p[:, at]
-        cross = np.abs(v1[..., 0] * v2[..., 1] - v1[..., 1] * v2[..., 0])
-        dot = (v1 * v2).sum(axis=-1)
+        px, py = self._px, self._py
+        v1x, v1y = px[u] - px[at], py[u] - py[at]
+        v2x, v2y = px[w] - px[at], py[w] - py[at]
+        cross = np.abs(v1x * v2y - v1y * v2x)
+        dot = v1x * v2x + v1y * v2y
         result: NDArray[np.float64] = np.degrees(np.arctan2(cross, dot))
         return result
 
     def pair_figures(
         self, pairs: NDArray[np.intp], shared: NDArray[np.intp]
     ) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.float64]]:
-        """Figures of triangle pairs on every set.
+        """Figures of triangle pairs on every set (the set axis last).
 
         Parameters
         ----------
@@ -280,23 +284,24 @@ class SetGeometry:
 
         Returns
         -------
-        compatible : ndarray of bool, shape (B, P)
+        compatible : ndarray of bool, shape (P, B)
             No edge of one triangle properly crosses an edge of the other.
-        gap : ndarray of float64, shape (B, P)
+        gap : ndarray of float64, shape (P, B)
             Smallest vertex-to-side distance of vertex-disjoint pairs (units of the
             points), inf for pairs sharing a vertex.
-        angle : ndarray of float64, shape (B, P)
+        angle : ndarray of float64, shape (P, B)
             Smallest angle (degrees) between the sides of the two triangles at the shared
             vertex, inf for vertex-disjoint pairs.
         """
         tb = self.tables
         b = self.pts.shape[0]
+        n = len(pairs)
         te1 = tb.tri_edges[pairs[:, 0]]  # (P, 3)
         te2 = tb.tri_edges[pairs[:, 1]]
-        crossing = self.cross[:, te1[:, :, None], te2[:, None, :]].reshape(b, len(pairs), 9).any(axis=2)
+        crossing = self.cross[te1[:, :, None], te2[:, None, :]].reshape(n, 9, b).any(axis=1)
         compat = ~crossing
-        gap = np.full((b, len(pairs)), np.inf)
-        ang = np.full((b, len(pairs)), np.inf)
+        gap = np.full((n, b), np.inf)
+        ang = np.full((n, b), np.inf)
         dis = shared < 0
         if dis.any():
             pr = pairs[dis]
@@ -304,20 +309,20 @@ class SetGeometry:
             v2 = tb.tris[pr[:, 1]]
             e1 = tb.tri_edges[pr[:, 0]]
             e2 = tb.tri_edges[pr[:, 1]]
-            g1 = self.pt_seg[:, v1[:, :, None], e2[:, None, :]].reshape(b, len(pr), 9).min(axis=2)
-            g2 = self.pt_seg[:, v2[:, :, None], e1[:, None, :]].reshape(b, len(pr), 9).min(axis=2)
-            gap[:, dis] = np.minimum(g1, g2)
+            g1 = self.pt_seg[v1[:, :, None], e2[:, None, :]].reshape(len(pr), 9, b).min(axis=1)
+            g2 = self.pt_seg[v2[:, :, None], e1[:, None, :]].reshape(len(pr), 9, b).min(axis=1)
+            gap[dis] = np.minimum(g1, g2)
         sh = ~dis
         if sh.any():
             pr = pairs[sh]
             v = shared[sh]
             o1 = np.sort(np.where(tb.tris[pr[:, 0]] == v[:, None], 1 << 20, tb.tris[pr[:, 0]]), axis=1)[:, :2]
             o2 = np.sort(np.where(tb.tris[pr[:, 1]] == v[:, None], 1 << 20, tb.tris[pr[:, 1]]), axis=1)[:, :2]
-            d1 = self.direction[:, v[:, None], o1]  # (B, P', 2)
-            d2 = self.direction[:, v[:, None], o2]
-            delta = np.abs(d1[:, :, :, None] - d2[:, :, None, :]) % 360.0
+            d1 = self.direction[v[:, None], o1]  # (P', 2, B)
+            d2 = self.direction[v[:, None], o2]
+            delta = np.abs(d1[:, :, None] - d2[:, None, :]) % 360.0
             delta = np.minimum(delta, 360.0 - delta)
-            ang[:, sh] = delta.reshape(b, len(pr), 4).min(axis=2)
+            ang[sh] = delta.reshape(len(pr), 4, b).min(axis=1)
         return compat, gap, ang
 
 
@@ -341,16 +346,16 @@ def cover_figures(
         inf when none) and smallest angular gap at a shared vertex (degrees, inf when none).
     """
     cands = cov.cands
-    valid = geo.empty[:, cands].all(axis=2)
-    angle = geo.tri_angle[:, cands].min(axis=2)
-    side = geo.tri_side[:, cands].min(axis=2)
+    valid = geo.empty[cands].all(axis=1)  # (C, B)
+    angle = geo.tri_angle[cands].min(axis=1)
+    side = geo.tri_side[cands].min(axis=1)
     if cov.pairs.shape[0]:
         compat, gap, ang = geo.pair_figures(cov.pairs, cov.pair_shared)
-        valid &= compat[:, cov.cand_pairs].all(axis=2)
-        cgap = gap[:, cov.cand_pairs].min(axis=2)
-        cang = ang[:, cov.cand_pairs].min(axis=2)
+        valid &= compat[cov.cand_pairs].all(axis=1)
+        cgap = gap[cov.cand_pairs].min(axis=1)
+        cang = ang[cov.cand_pairs].min(axis=1)
     else:
-        shape = (geo.pts.shape[0], len(cands))
+        shape = (len(cands), geo.pts.shape[0])
         cgap = np.full(shape, np.inf)
         cang = np.full(shape, np.inf)
-    return valid, angle, side, cgap, cang
+    return valid.T, angle.T, side.T, cgap.T, cang.T

@@ -278,7 +278,7 @@ def _parse_tag(tag: object, index: int, source: str) -> FileTag:
     if k != lam.shape[0]:
         raise DictionaryError(f"{where}: {k} points but 'lambda' is a {lam.shape[0]}-point order type")
     if not layout_supported(k):
-        raise DictionaryError(f"{where}: {k}-point tags cannot be drawn (k = 3, 5 … 8)")
+        raise DictionaryError(f"{where}: {k}-point tags cannot be drawn (k = 3, 5 … 9)")
     try:
         check_general_position(pts)
     except GeneralPositionError as exc:

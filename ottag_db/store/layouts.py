@@ -29,7 +29,7 @@ LAYOUT_BATCH = 512
 def missing_layouts(
     conn: Connection, *, source_id: int | None = None, first: int = 0, stop: int | None = None
 ) -> list[tuple[int, int, int, bytes]]:
-    """Realizations that can be drawn (k = 3, 5 … 8) and have no stored layout yet.
+    """Realizations that can be drawn (k = 3, 5 … 9) and have no stored layout yet.
 
     Parameters
     ----------
@@ -68,7 +68,7 @@ def store_layouts(conn: Connection, rows: Sequence[tuple[int, bytes]]) -> int:
     conn : Connection
         Connection inside the caller's transaction.
     rows : sequence of (int, bytes)
-        ``(realization id, coordinates blob)``, every set with the same k (3, 5 … 8).
+        ``(realization id, coordinates blob)``, every set with the same k (3, 5 … 9).
 
     Returns
     -------

@@ -19,6 +19,7 @@ from ottag_db.core.layout import (
     validate_layout,
 )
 from ottag_db.errors import ExportError, GeneralPositionError
+from tests.support.k9_sample import nine_point_sets
 from tests.support.paper import FIG4
 
 # Hand-made sets (not from the reference files).
@@ -85,7 +86,7 @@ def test_random_sets_always_get_layouts() -> None:
     # Validity depends on the order type only and every order type has a layout (tested
     # above), so random sets in general position must all get one too.
     rng = np.random.default_rng(1234)
-    for k in (5, 6, 7, 8):
+    for k in (5, 6, 7, 8, 9):
         sets = rng.integers(0, 256, size=(400, k, 2))
         sets = sets[general_position_mask(sets)][:200]
         for pts, lay in zip(sets, compute_layouts(sets, chunk=64), strict=True):
@@ -119,13 +120,13 @@ def test_k3_trivial_and_k4_refused() -> None:
     assert lay.min_gap is None and lay.min_shared_gap_deg is None
     assert isinstance(lay, Layout)
     assert layout_supported(3) and not layout_supported(4) and layout_supported(8)
-    assert not layout_supported(9)
+    assert layout_supported(9) and not layout_supported(10)
     with pytest.raises(ExportError, match="4 points"):
         compute_layout(np.array([(0, 0), (100, 0), (100, 100), (0, 100)]))
     with pytest.raises(ExportError, match="4 points"):
         compute_layout(np.array([(0, 0), (100, 0), (50, 100), (50, 30)]))
     with pytest.raises(ExportError, match="3 ≤ k"):
-        compute_layout(np.array([(i, i * i) for i in range(9)]))
+        compute_layout(np.array([(i, i * i) for i in range(10)]))
 
 
 def test_degenerate_set_is_rejected() -> None:
@@ -194,3 +195,21 @@ def test_layout_size_and_score_do_not_depend_on_labels(idx: int, seed: int) -> N
     assert relabeled.size == lay.size
     assert relabeled.score == pytest.approx(lay.score, rel=1e-9)
     assert validate_layout(pts[perm], relabeled.triangles) == []
+
+
+def test_nine_points_get_three_vertex_disjoint_triangles() -> None:
+    # Sorting by x and taking consecutive triples always gives three empty, disjoint
+    # triangles, so every nine-point set has a layout of ⌈9/3⌉ = 3 vertex-disjoint ones.
+    sets = _with_mirrors(nine_point_sets(20))
+    layouts = compute_layouts(sets, chunk=7)
+    for n, (pts, lay) in enumerate(zip(sets, layouts, strict=True)):
+        assert validate_layout(pts, lay.triangles) == [], f"set {n}"
+        assert lay.size == 3
+        assert sorted(v for t in lay.triangles for v in t) == list(range(9))
+        assert lay.min_gap is not None and lay.min_gap > 0 and lay.min_shared_gap_deg is None
+        assert layout_quality(pts.astype(float), lay.triangles) == lay
+    # a mirror image gets the mirrored layout: the same triangles, the same figures
+    half = len(sets) // 2
+    for lay, mirror in zip(layouts[:half], layouts[half:], strict=True):
+        assert mirror.triangles == lay.triangles
+        assert mirror.score == pytest.approx(lay.score, abs=1e-12)

@@ -60,3 +60,19 @@ def test_bad_margin_and_degenerate_sets() -> None:
         tag_placement(SETS[0], 0.5)
     with pytest.raises(ExportError):
         tag_placement(np.array([(0, 0), (1, 1), (2, 2), (5, 0)]))
+
+
+def test_pruned_search_equals_the_search_over_every_edge(
+    bundled_sets: dict[int, np.ndarray], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The search evaluates only the edges that can bind (a bound on the rest decides, and
+    # sets where it cannot are searched again over every edge): the maps must be exactly
+    # those of the exhaustive search, for every k, nine points included.
+    import ottag_db.core.placement as placement
+    from tests.support.k9_sample import nine_point_sets
+
+    sets = [bundled_sets[k].astype(float)[:300] for k in (5, 6, 7, 8)] + [nine_point_sets(20).astype(float)]
+    pruned = [tag_placements(s) for s in sets]
+    monkeypatch.setattr(placement, "_KEPT_EDGES", 10**6)
+    for s, maps in zip(sets, pruned, strict=True):
+        assert np.array_equal(tag_placements(s), maps)
