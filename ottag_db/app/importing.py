@@ -15,6 +15,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
+from ottag_db.errors import UsageError
 from ottag_db.files.bundled import bundled_point_files
 
 if TYPE_CHECKING:
@@ -97,29 +98,51 @@ class ImportTotals:
     new_realizations: int
 
 
-def plan_import(files: Sequence[Path], points: int | None = None, with_mirrors: bool | None = None) -> ImportPlan:
+def plan_import(
+    files: Sequence[Path],
+    points: int | None = None,
+    with_mirrors: bool | None = None,
+    ks: Sequence[int] = (),
+    *,
+    data_folder: Path | None = None,
+) -> ImportPlan:
     """What ``ottag-db import`` imports for the given files and options.
 
     Parameters
     ----------
     files : sequence of Path
-        Point files (.b08/.b16); empty for the bundled data (every order type of 3 … 8 points,
-        one per reflection pair).
+        Point files (.b08/.b16); empty for the bundled data.
     points : int or None
         Points per record of every named file; None reads it from each file's name. Ignored for
         the bundled data, whose point counts are known.
     with_mirrors : bool or None
         Store the mirror image of every chiral record; None for the default: on for the
         bundled data (so it holds every order type, as the CLI promises), off for named files.
+    ks : sequence of int
+        Bundled files to import, by point count (``--k``; e.g. ``(9,)`` for the 158,817
+        nine-point records, which the default leaves out); empty for the default bundled files
+        (every order type of 3 … 8 points, one per reflection pair). Only with no ``files``.
+    data_folder : Path, optional
+        Where the bundled files are (default: the installed data folder).
 
     Returns
     -------
     ImportPlan
         The jobs in order and the mirror setting that applies to all of them.
+
+    Raises
+    ------
+    UsageError
+        ``files`` and ``ks`` together (``--k`` selects bundled files).
+    PointFileError
+        A k in ``ks`` has no bundled file.
     """
+    if files and ks:
+        raise UsageError("--k selects bundled files by point count; name point files or use --k, not both")
     if files:
         return ImportPlan(tuple(ImportJob(Path(p), points) for p in files), bool(with_mirrors))
-    jobs = tuple(ImportJob(p, k) for p, k in bundled_point_files())
+    chosen = bundled_point_files(tuple(ks) if ks else None, folder=data_folder)
+    jobs = tuple(ImportJob(p, k) for p, k in chosen)
     return ImportPlan(jobs, True if with_mirrors is None else with_mirrors)
 
 

@@ -40,8 +40,9 @@ def stats_json(stats: Sequence[KStats]) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``{"k": {"order_types", "unique_min", "chiral", "mp_at_least", "up_to_reflection"}}``
-        keyed by k as text; ``mp_at_least`` maps v (grid units, one decimal, as text) to the
+        ``{"k": {"order_types", "unique_min", "chiral", "complete", "mp_at_least",
+        "up_to_reflection"}}`` keyed by k as text (``complete``: every order type of k points is
+        stored, so the counts are the complete ones); ``mp_at_least`` maps v (grid units, one decimal, as text) to the
         number of order types whose best realization has MP ≥ v. ``up_to_reflection`` holds the
         same counts with a chiral pair taken once (the paper's convention).
     """
@@ -50,6 +51,7 @@ def stats_json(stats: Sequence[KStats]) -> dict[str, Any]:
             "order_types": s.order_types,
             "unique_min": s.unique_min,
             "chiral": s.chiral,
+            "complete": s.complete,
             "mp_at_least": {f"{v:.1f}": c for v, c in s.mp_at_least.items()},
             "up_to_reflection": {
                 "order_types": s.up_to_reflection,

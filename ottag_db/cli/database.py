@@ -36,6 +36,13 @@ __all__ = ["db_group", "id_cmd", "import_cmd", "list_cmd", "show_cmd", "sources_
     is_flag=True,
     help="Accept records of the same order type in one file (refused by default: usually a wrong --points).",
 )
+@click.option(
+    "--k",
+    "ks",
+    type=click.IntRange(3, 10),
+    multiple=True,
+    help="Import the bundled file of these point counts (repeatable; 9 is not in the default import).",
+)
 @db_options
 @quiet_option
 def import_cmd(
@@ -43,19 +50,22 @@ def import_cmd(
     n: int | None,
     with_mirrors: bool | None,
     allow_duplicates: bool,
+    ks: tuple[int, ...],
     db_target: str | None,
     quiet: bool,
 ) -> None:
     """Import point-set files (.b08/.b16) into the database; no FILE imports the bundled data.
 
-    Each file is one transaction: a failure leaves the database as it was. Importing a file
-    again is a no-op. Ctrl-C (or SIGTERM) rolls back the file being imported and says so.
+    Without FILE: the bundled order types of 3 … 8 points; `--k 9` adds the 158,817
+    nine-point ones (about a minute), `--k K` picks any bundled k. Each file is one
+    transaction: a failure leaves the database as it was. Importing a file again is a no-op.
+    Ctrl-C (or SIGTERM) rolls back the file being imported and says so.
     """
     from ottag_db.app.importing import ImportInterrupted, import_totals, interrupts_raise, plan_import
     from ottag_db.files.pointfile import inspect_point_file
     from ottag_db.store.importer import import_point_file
 
-    plan = plan_import(files, n, with_mirrors)
+    plan = plan_import(files, n, with_mirrors, ks)
     for each in plan.jobs:  # names, sizes and formats first: a bad file list creates no database
         inspect_point_file(each.path, each.points)
     with open_db(db_target, quiet, create=True) as db:
@@ -133,7 +143,7 @@ def stats_cmd(as_json: bool, db_target: str | None, quiet: bool) -> None:
     reflection (a chiral pair once, as in the paper), the latter beside the paper's numbers.
     """
     from ottag_db.app.reports import PAPER_TABLE7, stats_json
-    from ottag_db.core.types import MP_THRESHOLDS
+    from ottag_db.core.types import COMPLETE_COUNTS, COMPLETE_COUNTS_UP_TO_REFLECTION, MP_THRESHOLDS
     from ottag_db.store.queries import database_stats
 
     with open_db(db_target, quiet) as db:
@@ -149,6 +159,12 @@ def stats_cmd(as_json: bool, db_target: str | None, quiet: bool) -> None:
         click.echo(
             f"{s.k:<2} {s.order_types:>11}  {s.unique_min:>16}  {s.chiral:>6} | "
             f"{s.up_to_reflection:>30}  {s.unique_min_up_to_reflection:>10}"
+            + (
+                ""
+                if s.complete
+                else f"  (not all: {COMPLETE_COUNTS.get(s.k, '?')} exist, "
+                f"{COMPLETE_COUNTS_UP_TO_REFLECTION.get(s.k, '?')} up to reflection)"
+            )
         )
     click.echo("")
     click.echo(

@@ -19,7 +19,7 @@ def dictionary_group() -> None:
 
 @dictionary_group.command("create")
 @click.argument("name")
-@click.option("--k", "ks", type=click.IntRange(3, 8), multiple=True, help="Only these point counts (repeatable).")
+@click.option("--k", "ks", type=click.IntRange(3, 9), multiple=True, help="Only these point counts (repeatable).")
 @click.option("--min-mp", type=click.FloatRange(min=0), default=None, help="Only MP >= V (grid units).")
 @click.option("--matchable", is_flag=True, help="Only unique-minimum order types.")
 @click.option("--polarity", type=click.Choice(["normal", "inverted", "both"]), default="normal", show_default=True)

@@ -44,7 +44,7 @@ _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
 class DictionaryOptions:
     """How to build a dictionary.
 
-    Candidates are the drawable order types (k = 3, 5 … 8) passing the filters (``min_mp`` in
+    Candidates are the drawable order types (k = 3, 5 … 9) passing the filters (``min_mp`` in
     grid units); with ``include_mirrors=False`` only the member of each chiral pair with the
     smaller canonical λ is a candidate. Candidates are taken greedily in the order
     (MP descending, k, canonical λ) and kept when no kept member is fewer than

@@ -6,10 +6,13 @@ from collections.abc import Sequence
 from datetime import datetime
 
 import numpy as np
+from numpy.typing import NDArray
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from ottag_db.core.flips import flip_neighbours
+from ottag_db.core.canonical import canonicalize_lambdas, mirror_lambdas
+from ottag_db.core.flips import flip_edges
+from ottag_db.core.geometry import lambda_matrices
 from ottag_db.core.types import COMPLETE_COUNTS, ProgressCallback
 from ottag_db.errors import DictionaryError, NotFoundError
 from ottag_db.store.db import Database
@@ -17,6 +20,11 @@ from ottag_db.store.models import FlipEdgeRow, FlipGraphStatus, OrderType, Reali
 from ottag_db.store.queries import find_order_type
 
 __all__ = ["ensure_flip_graph", "flip_adjacency", "neighbours", "within_flips"]
+
+# Edge rows per INSERT batch (k = 9 stores about 4 million).
+_INSERT_BATCH = 200_000
+# Text of a triple coded 100 a + 10 b + c (labels 0 … 9), as stored: "a,b,c".
+_TRIPLE_TEXT = {100 * a + 10 * b + c: f"{a},{b},{c}" for a in range(10) for b in range(10) for c in range(10)}
 
 
 def _require_complete(s: Session, k: int) -> None:
@@ -33,8 +41,12 @@ def ensure_flip_graph(db: Database, ks: Sequence[int], *, progress: ProgressCall
     """Compute and store the flip graph of each complete k in ``ks`` not computed yet.
 
     Every order type's best realization (canonical order) is flipped triple by triple;
-    edges are confirmed by orientations (:func:`ottag_db.core.flips.flip_neighbours`).
-    This writes (once per k); dictionary creation calls it.
+    edges are confirmed by orientations (:func:`ottag_db.core.flips.flip_edges`). Only one
+    order type per reflection pair is flipped: the mirror image of an edge ``A → B`` is the
+    edge ``mirror(A) → mirror(B)`` (the flipped triple renamed into the mirror's canonical
+    labels), so the other half comes from symmetry. Every edge is stored in both directions
+    with its triple (k = 9: about 4 million rows; see the README). This writes (once per k);
+    dictionary creation calls it.
 
     Parameters
     ----------
@@ -43,7 +55,7 @@ def ensure_flip_graph(db: Database, ks: Sequence[int], *, progress: ProgressCall
     ks : sequence of int
         Point counts.
     progress : ProgressCallback, optional
-        Passed on to :func:`ottag_db.core.flips.flip_neighbours`.
+        Passed on to :func:`ottag_db.core.flips.flip_edges` ((order type, triple) pairs).
 
     Returns
     -------
@@ -77,15 +89,56 @@ def ensure_flip_graph(db: Database, ks: Sequence[int], *, progress: ProgressCall
             pts = np.stack([coordinates_from_blob(first[i][1])[[int(c) for c in first[i][2]]] for i in ot_ids]).astype(
                 np.float64
             )
-            edges = flip_neighbours(pts, texts, progress=progress) if k >= 4 else []
-            unique = {(ot_ids[e.source], ot_ids[e.target], ",".join(map(str, e.triple))) for e in edges}
-            if unique:
-                s.execute(
-                    FlipEdgeRow.__table__.insert(),  # type: ignore[attr-defined]
-                    [{"source_id": a, "target_id": b, "triple": t} for a, b, t in sorted(unique)],
-                )
-            s.add(FlipGraphStatus(k=k, order_types=len(ot_ids), edges=len(unique), computed_at=datetime.now()))
-            out[k] = len(unique)
+            edges = _edge_arrays(pts, texts, progress) if k >= 4 else np.zeros((0, 3), dtype=np.int64)
+            ids = np.asarray(ot_ids, dtype=np.int64)
+            conn = s.connection()
+            for start in range(0, edges.shape[0], _INSERT_BATCH):
+                part = edges[start : start + _INSERT_BATCH]
+                values = [
+                    (a, b, _TRIPLE_TEXT[c])
+                    for a, b, c in zip(
+                        ids[part[:, 0]].tolist(), ids[part[:, 1]].tolist(), part[:, 2].tolist(), strict=True
+                    )
+                ]
+                if conn.dialect.name == "sqlite":
+                    conn.exec_driver_sql(
+                        "INSERT INTO flip_edges (source_id, target_id, triple) VALUES (?, ?, ?)", values
+                    )
+                else:
+                    s.execute(
+                        FlipEdgeRow.__table__.insert(),  # type: ignore[attr-defined]
+                        [{"source_id": a, "target_id": b, "triple": t} for a, b, t in values],
+                    )
+            s.add(FlipGraphStatus(k=k, order_types=len(ot_ids), edges=int(edges.shape[0]), computed_at=datetime.now()))
+            out[k] = int(edges.shape[0])
+    return out
+
+
+def _edge_arrays(pts: NDArray[np.float64], texts: list[str], progress: ProgressCallback | None) -> NDArray[np.int64]:
+    """``(E, 3)`` rows ``(source index, target index, triple code)`` of every edge among ``texts``.
+
+    Flips one order type per reflection pair and adds the mirror image of each edge; the
+    triple ``(a, b, c)`` is coded ``100 a + 10 b + c`` (see ``_TRIPLE_TEXT``). Rows are unique
+    and sorted (arrays, not Python tuples: k = 9 has about 4 million edges).
+    """
+    index_of = {t: i for i, t in enumerate(texts)}
+    # In chunks: the orientations of all 316,809 nine-point sets at once would take 1.8 GB.
+    lam = np.concatenate([lambda_matrices(pts[i : i + 16384]) for i in range(0, pts.shape[0], 16384)])
+    mirror = canonicalize_lambdas(mirror_lambdas(lam))
+    mirror_texts = mirror.texts()
+    mirror_index = np.array([index_of.get(t, -1) for t in mirror_texts], dtype=np.int64)
+    # One per reflection pair (the smaller ID), or every type whose mirror is missing.
+    own = np.array([m < 0 or t <= mt for t, mt, m in zip(texts, mirror_texts, mirror_index, strict=True)])
+    edges = flip_edges(pts, texts, index_of, sources=np.flatnonzero(own), progress=progress)
+    code = np.array([100, 10, 1], dtype=np.int64)
+    rows = [np.stack([edges.source, edges.target, edges.triple @ code], axis=1)]
+    # The mirror image of A → B: label l of A is label inverse[A, l] of mirror(A).
+    ok = (mirror_index[edges.source] >= 0) & (mirror_index[edges.target] >= 0)
+    src, tgt, tri = edges.source[ok], edges.target[ok], edges.triple[ok]
+    inverse = np.argsort(mirror.labelings, axis=1)
+    renamed = np.sort(np.take_along_axis(inverse[src], tri, axis=1), axis=1)
+    rows.append(np.stack([mirror_index[src], mirror_index[tgt], renamed @ code], axis=1))
+    out: NDArray[np.int64] = np.unique(np.concatenate(rows), axis=0)
     return out
 
 

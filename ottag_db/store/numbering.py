@@ -13,7 +13,7 @@ __all__ = ["assign_numbers"]
 def assign_numbers(conn: Connection) -> dict[int, bool]:
     """Number the order types of every complete k by rank of canonical λ (0 = smallest).
 
-    The set of order types of k ≤ 8 points is finite and fixed, so once a database holds
+    The set of order types of k ≤ 9 points is finite and fixed, so once a database holds
     all of them the rank is the same in every database built by this tool. Incomplete k
     keep ``number = NULL``.
 

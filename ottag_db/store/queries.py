@@ -4,20 +4,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from ottag_db.core.canonical import canonical_form, lambda_text, parse_lambda_text
 from ottag_db.core.geometry import check_general_position, maximal_perturbation
-from ottag_db.core.types import MP_THRESHOLDS
 from ottag_db.errors import GeneralPositionError, NotFoundError, UsageError
 from ottag_db.store.db import Database
 from ottag_db.store.models import OrderType, Realization, coordinates_from_blob
+from ottag_db.store.statistics import KStats, best_mp_query, database_stats
 
 __all__ = [
     "IdResult",
@@ -33,26 +32,6 @@ __all__ = [
     "order_type_numbers",
     "parse_points",
 ]
-
-
-@dataclass(frozen=True)
-class KStats:
-    """Counts for one k: order types (Table 2), unique minimum (Table 3), MP ≥ v (Table 7).
-
-    ``mp_at_least[v]`` counts order types whose best realization has MP ≥ v. The
-    ``*_up_to_reflection`` counts take a chiral pair once (as Aichholzer's files and the
-    paper's tables do): a chiral order type whose mirror is also stored counts only when its
-    canonical λ is the smaller of the two.
-    """
-
-    k: int
-    order_types: int
-    unique_min: int
-    chiral: int
-    mp_at_least: dict[float, int]
-    up_to_reflection: int = 0
-    unique_min_up_to_reflection: int = 0
-    mp_at_least_up_to_reflection: dict[float, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -144,67 +123,6 @@ class IdResult:
         }
 
 
-def _best_mp() -> Any:
-    return select(Realization.order_type_id, func.max(Realization.mp).label("mp"), func.count().label("n")).group_by(
-        Realization.order_type_id
-    )
-
-
-def database_stats(db: Database, thresholds: Sequence[float] = MP_THRESHOLDS) -> list[KStats]:
-    """Per k: order types, unique-minimum ones, chiral ones and MP ≥ v counts (best realization).
-
-    Parameters
-    ----------
-    db : Database
-        An open database (only read).
-    thresholds : sequence of float
-        The v values, grid units (default: the paper's Table 7).
-
-    Returns
-    -------
-    list of KStats
-        One per k present, ascending; empty for an empty database.
-    """
-    best = _best_mp().subquery()
-    with db.session() as s:
-        rows = s.execute(
-            select(
-                OrderType.k,
-                OrderType.unique_min,
-                OrderType.chiral,
-                best.c.mp,
-                OrderType.lambda_text,
-                OrderType.mirror_lambda_text,
-            ).join(best, best.c.order_type_id == OrderType.id)
-        ).all()
-    if not rows:
-        return []
-    ks = np.array([r[0] for r in rows])
-    uniq = np.array([bool(r[1]) for r in rows])
-    chiral = np.array([bool(r[2]) for r in rows])
-    mp = np.array([float(r[3]) for r in rows])
-    stored = {r[4] for r in rows}
-    # One per reflection pair: drop the chiral type whose mirror is stored with a smaller λ.
-    rep = np.array([not r[2] or r[5] not in stored or r[4] < r[5] for r in rows])
-    out = []
-    for k in sorted(set(ks.tolist())):
-        sel = ks == k
-        pair = sel & rep
-        out.append(
-            KStats(
-                k=int(k),
-                order_types=int(sel.sum()),
-                unique_min=int(uniq[sel].sum()),
-                chiral=int(chiral[sel].sum()),
-                mp_at_least={float(v): int((mp[sel] >= v).sum()) for v in thresholds},
-                up_to_reflection=int(pair.sum()),
-                unique_min_up_to_reflection=int(uniq[pair].sum()),
-                mp_at_least_up_to_reflection={float(v): int((mp[pair] >= v).sum()) for v in thresholds},
-            )
-        )
-    return out
-
-
 def list_order_types(
     db: Database,
     *,
@@ -236,7 +154,7 @@ def list_order_types(
     list of OrderTypeSummary
         The contract of ``list --format json``.
     """
-    best = _best_mp().subquery()
+    best = best_mp_query().subquery()
     q = (
         select(OrderType, best.c.mp, best.c.n)
         .join(best, best.c.order_type_id == OrderType.id)

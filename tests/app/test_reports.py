@@ -66,6 +66,7 @@ def test_stats_json_shape() -> None:
             "order_types": 3,
             "unique_min": 2,
             "chiral": 0,
+            "complete": False,
             "mp_at_least": {"0.5": 3, "1.0": 2},
             "up_to_reflection": {"order_types": 3, "unique_min": 2, "mp_at_least": {"0.5": 3, "1.0": 1}},
         }
@@ -79,6 +80,7 @@ def test_stats_json_of_the_bundled_database(bundled_db_path: Path) -> None:
     assert list(doc) == ["3", "4", "5", "6", "7", "8"]
     assert doc["8"]["up_to_reflection"]["order_types"] == 3315
     assert list(doc["8"]["mp_at_least"]) == [f"{v:.1f}" for v in MP_THRESHOLDS]
+    assert all(doc[k]["complete"] for k in doc)
 
 
 def test_order_type_json(bundled_db_path: Path) -> None:

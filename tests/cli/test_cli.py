@@ -89,7 +89,8 @@ def test_stats_json_contract(runner: CliRunner, bdb: Path) -> None:
     assert {k: v["order_types"] for k, v in up.items()} == TABLE2  # type: ignore[index]
     assert [up[str(k)]["unique_min"] for k in (5, 6, 7, 8)] == TABLE3  # type: ignore[index]
     for k, v in stats.items():
-        assert set(v) == {"order_types", "unique_min", "chiral", "mp_at_least", "up_to_reflection"}
+        assert set(v) == {"order_types", "unique_min", "chiral", "complete", "mp_at_least", "up_to_reflection"}
+        assert v["complete"] is True
         for mp in (v["mp_at_least"], up[k]["mp_at_least"]):  # type: ignore[index]
             assert list(mp) == [f"{0.5 * i:.1f}" for i in range(1, 19)]
             counts = list(mp.values())

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ottag_db.core.canonical import canonical_batch, canonical_lambda
-from ottag_db.core.flips import flip_neighbours
+from ottag_db.core.flips import flip_edges, flip_neighbours
 from ottag_db.core.geometry import orientation_tensor
 
 
@@ -92,3 +92,18 @@ def test_edges_do_not_depend_on_the_order_of_the_list(bundled_sets: dict[int, np
     want = {(texts[e.source], texts[e.target]) for e in flip_neighbours(pts, texts)}
     got = {(shuffled[e.source], shuffled[e.target]) for e in flip_neighbours(pts[perm], shuffled)}
     assert got == want
+
+
+def test_flip_edges_from_chosen_sources_are_the_full_graphs_rows(bundled_sets: dict[int, np.ndarray]) -> None:
+    pts, texts = _complete(bundled_sets[7])
+    full = flip_edges(pts, texts)
+    assert len(full) == len(flip_neighbours(pts, texts))
+    chosen = np.array([5, 0, 131, 240])
+    part = flip_edges(pts, texts, sources=chosen, chunk=100)
+    want = {
+        (s, t, tuple(x)) for s, t, x in zip(full.source, full.target, full.triple.tolist(), strict=True) if s in chosen
+    }
+    got = {(s, t, tuple(x)) for s, t, x in zip(part.source, part.target, part.triple.tolist(), strict=True)}
+    assert got == want and len(part) == len(want)
+    assert part.source.tolist() == sorted(part.source.tolist(), key=chosen.tolist().index)  # in the order given
+    assert len(flip_edges(pts, texts, sources=np.array([], dtype=int))) == 0
