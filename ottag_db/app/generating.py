@@ -17,10 +17,10 @@ from numpy.typing import NDArray
 
 from ottag_db.core.types import MP_THRESHOLDS, StageProgress
 from ottag_db.errors import OttagError, UsageError
-from ottag_db.files.bundled import bundled_manifest
+from ottag_db.files.bundled import DEFAULT_IMPORT_MAX_K, bundled_manifest
 from ottag_db.files.pointfile import file_sha256, read_point_file, write_point_file
 from ottag_db.files.resources import data_dir
-from ottag_db.generation.enumeration import enumerate_order_types
+from ottag_db.generation.enumeration import ENUMERATION_MAX_K, EnumerationPass, enumerate_order_types
 
 __all__ = ["BundledComparison", "GenerationReport", "default_work_dir", "file_name", "generate_database"]
 
@@ -45,6 +45,9 @@ class GenerationReport:
 
     - ``records``: ``{k: sets in the file}`` (one per reflection pair);
     - ``with_mirrors``: ``{k: order types counting both chiralities}``;
+    - ``achiral``: ``{k: order types equal to their mirror image}`` (``records`` − ``achiral``
+      pairs are chiral);
+    - ``passes``: ``{k: the enumeration's passes}`` (how many realizations each took);
     - ``files``: ``{k: path of ottag-kNN.b08}``; ``manifest``: path of manifest.json;
     - ``mp_thresholds``: the values v (grid units) of ``mp_table``;
     - ``mp_table``: ``{k: (number of sets with MP ≥ v for each v)}`` (paper's Table 7);
@@ -56,6 +59,8 @@ class GenerationReport:
 
     records: dict[int, int]
     with_mirrors: dict[int, int]
+    achiral: dict[int, int]
+    passes: dict[int, tuple[EnumerationPass, ...]]
     files: dict[int, Path]
     manifest: Path
     mp_thresholds: tuple[float, ...]
@@ -140,7 +145,7 @@ def generate_database(
     Parameters
     ----------
     max_k : int, optional
-        Largest number of points, 3 … 8.
+        Largest number of points, 3 … 9 (k = 9: 158,817 sets up to reflection, see README).
     out_dir : Path, optional
         Folder to write into (created when missing).
     seed : int, optional
@@ -164,12 +169,12 @@ def generate_database(
     Raises
     ------
     UsageError
-        For ``max_k`` outside 3 … 8 or ``jobs < 1``.
+        For ``max_k`` outside 3 … 9 or ``jobs < 1``.
     ClusterError
         When ``scheduler`` cannot be reached.
     """
-    if not 3 <= max_k <= 8:
-        raise UsageError(f"max_k must be between 3 and 8, got {max_k}")
+    if not 3 <= max_k <= ENUMERATION_MAX_K:
+        raise UsageError(f"max_k must be between 3 and {ENUMERATION_MAX_K}, got {max_k}")
     if jobs < 1:
         raise UsageError(f"jobs must be at least 1, got {jobs}")
     # Imported here: the realization needs SciPy, which `import ottag_db.generation.database`
@@ -188,7 +193,8 @@ def generate_database(
     # Workers first: an unreachable scheduler fails before the enumeration, not after it.
     with open_workers(Workers(jobs=jobs, scheduler=scheduler)) as runner:
         t0 = time.perf_counter()
-        types = enumerate_order_types(max_k, progress=progress, jobs=jobs)
+        passes: list[EnumerationPass] = []
+        types = enumerate_order_types(max_k, progress=progress, jobs=jobs, on_pass=passes.append)
         t1 = time.perf_counter()
         for k in range(3, max_k + 1):
             reps = sorted((r for r in types[k] if r.representative), key=lambda r: r.text)
@@ -221,6 +227,8 @@ def generate_database(
             "sha256": file_sha256(path),
             "mp_min": round(float(mps[k].min()), 6),
             "mp_median": round(float(np.median(mps[k])), 6),
+            # Nine-point data is large (a minute to import with mirrors): imported on request.
+            "default": k <= DEFAULT_IMPORT_MAX_K,
         }
         if progress is not None:
             progress("write", n, len(ks))
@@ -249,6 +257,8 @@ def generate_database(
     return GenerationReport(
         records={k: int(realized[k].shape[0]) for k in ks},
         with_mirrors={k: len(types[k]) for k in ks},
+        achiral={k: sum(1 for r in types[k] if r.text == r.mirror_text) for k in ks},
+        passes={k: tuple(p for p in passes if p.k == k) for k in ks},
         files=files,
         manifest=manifest_path,
         mp_thresholds=MP_THRESHOLDS,

@@ -22,7 +22,9 @@ def _check_address(ctx: click.Context, param: click.Parameter, value: str | None
 
 
 @click.command("generate")
-@click.option("--max-k", type=click.IntRange(3, 8), default=8, show_default=True, help="Largest number of points.")
+@click.option(
+    "--max-k", type=click.IntRange(3, 9), default=8, show_default=True, help="Largest number of points (9: see README)."
+)
 @click.option(
     "--out",
     "out_dir",
@@ -92,6 +94,13 @@ def generate_cmd(
             f"k = {k}: {rep.records[k]} order types up to reflection ({rep.with_mirrors[k]} with mirrors), "
             f"min MP {rep.mp_min[k]:.2f}{note} -> {rep.files[k]}"
         )
+        passes = rep.passes.get(k, ())
+        if passes:
+            click.echo(
+                f"  {rep.records[k] - rep.achiral[k]} chiral pairs, {rep.achiral[k]} achiral; enumerated from "
+                f"{sum(p.bases for p in passes)} realizations of {k - 1} points in {len(passes)} passes",
+                err=True,
+            )
     if any(not c.identical for c in rep.bundled.values()):
         click.echo(
             "note: the same seed gives byte-identical files on one platform (any --jobs, any --max-k); "

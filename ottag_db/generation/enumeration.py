@@ -1,4 +1,4 @@
-"""Enumerate all order types of 3 … 8 points from scratch, each with a float realization in [0, 1]²."""
+"""Enumerate all order types of 3 … 9 points from scratch, each with a float realization in [0, 1]²."""
 
 from __future__ import annotations
 
@@ -16,7 +16,14 @@ from ottag_db.errors import UsageError
 from ottag_db.generation.arrangement import insertion_candidates, vertex_layout
 from ottag_db.generation.objective import relative_mp
 
-__all__ = ["EnumeratedSet", "enumerate_order_types", "mirror_points", "normalize_unit"]
+__all__ = [
+    "ENUMERATION_MAX_K",
+    "EnumeratedSet",
+    "EnumerationPass",
+    "enumerate_order_types",
+    "mirror_points",
+    "normalize_unit",
+]
 
 _T = TypeVar("_T")
 _R = TypeVar("_R")
@@ -30,6 +37,34 @@ _MIN_QUALITY = 1e-9
 _ENUM_CHUNK = 1500
 #: Candidate sets canonicalized per batch (bounds the memory to a few hundred MB).
 _CHUNK_SETS = 200_000
+#: Largest number of points the enumeration handles.
+ENUMERATION_MAX_K = 9
+#: From this k on (by default), the passes after the first insert into a sample of the new sets' subsets:
+#: all of them would be 9 subsets of each of ~316,000 nine-point sets (1.4 million bases, hours),
+#: while a few per (k − 1)-point type already reach every order type (k = 9: passes of 25,619,
+#: 5,132, 1,030, 205 and 63 bases after the first 3,315, about 7 minutes on one core).
+_SAMPLED_FROM_K = 9
+#: Subsets kept per (k − 1)-point order type and pass when sampling.
+_SUBSETS_PER_TYPE = 4
+
+
+@dataclass(frozen=True)
+class EnumerationPass:
+    """One pass of the enumeration of ``k``-point order types.
+
+    - ``k``; ``number``: 1 for the insertion into one realization per (k − 1)-point type,
+      then 2, 3, … for the insertions into subsets of the sets found by the pass before (or,
+      after a pass that found nothing when sampling, into a sample of subsets of all sets);
+    - ``bases``: the (k − 1)-point realizations whose arrangements were used in this pass;
+    - ``new``: order types first found in this pass (both chiralities, mirrors added after);
+    - ``total``: order types known after it (both chiralities).
+    """
+
+    k: int
+    number: int
+    bases: int
+    new: int
+    total: int
 
 
 @dataclass(frozen=True)
@@ -236,28 +271,77 @@ def _insert_all(
     return merged
 
 
+def _sample_subsets(subs: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
+    """Up to ``_SUBSETS_PER_TYPE`` of the ``(N, k − 1, 2)`` sets per order type (seeded choice), jittered."""
+    groups: dict[str, list[int]] = {}
+    for i, text in enumerate(canonical_batch(subs).texts()):
+        groups.setdefault(text, []).append(i)
+    pick: list[int] = []
+    for text in sorted(groups):
+        members = groups[text]
+        take = min(_SUBSETS_PER_TYPE, len(members))
+        pick.extend(rng.choice(members, size=take, replace=False).tolist())
+    return _jitter(subs[np.array(sorted(pick), dtype=np.intp)], rng)
+
+
+def _next_bases(
+    fresh_pts: NDArray[np.float64], frontier: list[NDArray[np.float64]], sampled: bool, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Bases of the next pass, jittered: the (k − 1)-subsets of the new sets of the frontier
+    (one chirality per pair), or when ``sampled`` a sample of the subsets of all new sets."""
+    if not sampled:
+        return _jitter(_subsets(np.stack(frontier)), rng)
+    return _sample_subsets(_subsets(fresh_pts), rng)
+
+
+def _sweep_bases(found: dict[str, tuple[NDArray[np.float64], float]], rng: np.random.Generator) -> NDArray[np.float64]:
+    """Bases of a sweep: one random (k − 1)-subset of every known set, sampled per order type.
+
+    When the sampled passes stop, a type can still be missing because its cell occurs only
+    in realizations no sample drew (k = 9: one chiral pair of 158,817 in a run without
+    sweeps); a sweep draws new subsets from all known sets, not only the latest ones.
+    """
+    pts = np.stack([found[t][0] for t in sorted(found)])
+    b, k, _ = pts.shape
+    drop = np.asarray(rng.integers(0, k, size=b), dtype=np.intp)
+    keep = np.arange(k)[None, :] != drop[:, None]
+    return _sample_subsets(pts[keep].reshape(b, k - 1, 2), rng)
+
+
 def enumerate_order_types(
-    max_k: int = 8, progress: StageProgress | None = None, jobs: int = 1
+    max_k: int = 8,
+    progress: StageProgress | None = None,
+    jobs: int = 1,
+    on_pass: Callable[[EnumerationPass], None] | None = None,
+    *,
+    sampled_from_k: int = _SAMPLED_FROM_K,
 ) -> dict[int, list[EnumeratedSet]]:
     """All order types of ``k = 3 … max_k`` points in general position, both chiralities.
 
     Starts from a triangle; the types of ``k`` points come from inserting a point into
     every cell of the line arrangement of a realization of each type of ``k − 1`` points,
-    then (since the cells depend on the coordinates) into every ``(k − 1)``-subset of the
-    new ``k``-point realizations, until a pass finds nothing new. Mirror images are added
-    by reflection. Deterministic (also across ``jobs``, the number of processes). Returns
+    then (since the cells depend on the coordinates) into ``(k − 1)``-subsets of the new
+    ``k``-point realizations — all of them below ``sampled_from_k``, from there on a few per
+    ``(k − 1)``-point order type, closed by sweeps over subsets of all known sets — until a
+    pass (a sweep, when sampling) finds nothing new. Mirror images are added by
+    reflection. Deterministic (also across ``jobs``, the number of processes). Returns
     ``{k: [EnumeratedSet, …]}`` sorted by ID text; the points are in [0, 1]² and, of all
     candidates seen, the one with the largest relative MP is kept.
-    ``progress(stage, done, total)`` is called per chunk of work.
+    ``progress(stage, done, total)`` is called per chunk of work, ``on_pass`` after each pass.
 
     Parameters
     ----------
     max_k : int, optional
-        Largest number of points, 3 … 8.
+        Largest number of points, 3 … 9.
     progress : StageProgress, optional
         ``progress(stage, done, total)`` in chunks of base sets.
     jobs : int, optional
         Number of processes (≥ 1).
+    on_pass : callable, optional
+        Called with an :class:`EnumerationPass` after every pass (the realizations it took).
+    sampled_from_k : int, optional
+        First k whose later passes sample the subsets (9: the bundled files of k ≤ 8 were
+        made without sampling; exhaustive subsets at k = 9 would take hours).
 
     Returns
     -------
@@ -267,10 +351,10 @@ def enumerate_order_types(
     Raises
     ------
     UsageError
-        For ``max_k`` outside 3 … 8 or ``jobs < 1``.
+        For ``max_k`` outside 3 … 9 or ``jobs < 1``.
     """
-    if not 3 <= max_k <= 8:
-        raise UsageError(f"max_k must be between 3 and 8, got {max_k}")
+    if not 3 <= max_k <= ENUMERATION_MAX_K:
+        raise UsageError(f"max_k must be between 3 and {ENUMERATION_MAX_K}, got {max_k}")
     if jobs < 1:
         raise UsageError(f"jobs must be at least 1, got {jobs}")
     tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]]])
@@ -282,6 +366,9 @@ def enumerate_order_types(
         base = _jitter(np.stack([r.points for r in reps]), rng)
         found: dict[str, tuple[NDArray[np.float64], float]] = {}
         passes = 0
+        # Sampled passes end with a sweep over all known sets; another one follows any pass that
+        # found something new, so the run stops after a sweep that found nothing.
+        swept = False
         while base.shape[0]:
             passes += 1
             new = _insert_all(base, jobs, f"enumerate k={k} pass {passes}", progress)
@@ -291,7 +378,14 @@ def enumerate_order_types(
                 if old is None or q > old[1]:
                     found[text] = (pts, q)
             if not fresh:
-                break
+                if on_pass is not None:
+                    on_pass(EnumerationPass(k, passes, int(base.shape[0]), 0, len(found)))
+                if k < sampled_from_k or swept:
+                    break
+                swept = True
+                base = _sweep_bases(found, rng)
+                continue
+            swept = False
             # Close under reflection. Extending a reflected set gives only the reflections of
             # the extensions of the original, so one chirality per pair is extended further.
             fresh_pts = np.stack([found[t][0] for t in fresh])
@@ -305,7 +399,9 @@ def enumerate_order_types(
                     frontier.append(pts)
                 if mtext not in found:
                     found[mtext] = (mpts, float(mq))
-            base = _jitter(_subsets(np.stack(frontier)), rng)
+            if on_pass is not None:
+                on_pass(EnumerationPass(k, passes, int(base.shape[0]), len(fresh), len(found)))
+            base = _next_bases(fresh_pts, frontier, k >= sampled_from_k, rng)
         texts = sorted(found)
         pts_all = np.stack([found[t][0] for t in texts])
         mirrors = _mirror_texts(pts_all)

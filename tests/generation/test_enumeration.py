@@ -18,7 +18,7 @@ from ottag_db.files.bundled import bundled_manifest
 from ottag_db.files.pointfile import OFFICIAL_RECORD_COUNTS, file_sha256
 from ottag_db.files.resources import data_dir
 from ottag_db.generation.arrangement import insertion_candidates
-from ottag_db.generation.enumeration import EnumeratedSet, enumerate_order_types, mirror_points
+from ottag_db.generation.enumeration import EnumeratedSet, EnumerationPass, enumerate_order_types, mirror_points
 from ottag_db.generation.objective import relative_mp
 
 
@@ -72,6 +72,25 @@ def test_enumeration_is_deterministic(enumerated: dict[int, list[EnumeratedSet]]
         assert [r.text for r in again[k]] == [r.text for r in enumerated[k]]
         for a, b in zip(again[k], enumerated[k], strict=True):
             assert np.array_equal(a.points, b.points)
+
+
+def test_sampled_passes_reach_every_order_type(enumerated: dict[int, list[EnumeratedSet]]) -> None:
+    # The k = 9 strategy (a few subsets per (k − 1)-point type in the passes after the first),
+    # applied from k = 5 on: the same order types as the exhaustive passes.
+    passes: list[EnumerationPass] = []
+    sampled = enumerate_order_types(7, on_pass=passes.append, sampled_from_k=5)
+    for k in range(3, 8):
+        assert [r.text for r in sampled[k]] == [r.text for r in enumerated[k]], k
+    for k in range(4, 8):
+        mine = [p for p in passes if p.k == k]
+        assert [p.number for p in mine] == list(range(1, len(mine) + 1))
+        assert mine[-1].new == 0 and mine[-1].total == COMPLETE_COUNTS[k]
+        assert sum(p.new for p in mine) <= COMPLETE_COUNTS[k]
+
+
+def test_max_k_above_nine_is_refused() -> None:
+    with pytest.raises(UsageError, match="between 3 and 9"):
+        enumerate_order_types(10)
 
 
 def test_candidates_hit_every_cell_of_a_square() -> None:
