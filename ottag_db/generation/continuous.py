@@ -16,7 +16,7 @@ from ottag_db.core.geometry import triple_indices
 from ottag_db.generation.effort import RealizeEffort, default_effort
 from ottag_db.generation.objective import GRID_MAX, grid_mp, triple_signs
 
-__all__ = ["optimize_continuous"]
+__all__ = ["optimize_continuous", "polish_slsqp", "start_points"]
 
 # --------------------------------------------------------------------------------------------
 # BLAS threads: SLSQP calls BLAS on tiny matrices, where extra threads only burn CPU.
@@ -233,3 +233,57 @@ def optimize_continuous(
                 if value > best:
                     best_pts, best = cand, value
     return best_pts, best
+
+
+def start_points(points: ArrayLike, rng: np.random.Generator, count: int) -> NDArray[np.float64]:
+    """The starts :func:`optimize_continuous` begins with: ``points`` scaled into the box, then
+    ``count − 1`` random projective images of it (same order type).
+
+    Parameters
+    ----------
+    points : array_like, shape (k, 2)
+        A realization in general position (any units, screen coordinates).
+    rng : numpy.random.Generator
+        Source of the projective maps.
+    count : int
+        Number of starts (≥ 1).
+
+    Returns
+    -------
+    ndarray of float64, shape (count, k, 2)
+        Start points in [0, GRID_MAX]² (grid units).
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    return np.stack([_to_box(pts)] + [_random_projective(pts, rng) for _ in range(count - 1)])
+
+
+def polish_slsqp(
+    points: NDArray[np.float64], signs: NDArray[np.float64], maxiter: int
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """One SLSQP run from each of several sets, OpenBLAS on one thread (as in
+    :func:`optimize_continuous`); a set keeps its input when SLSQP does not beat it.
+
+    Parameters
+    ----------
+    points : ndarray of float64, shape (M, k, 2)
+        Start points in [0, GRID_MAX]² (grid units), orientations as ``signs``.
+    signs : ndarray of float64, shape (M, C(k, 3))
+        Target orientation of every triple.
+    maxiter : int
+        SLSQP iteration limit.
+
+    Returns
+    -------
+    points : ndarray of float64, shape (M, k, 2)
+        The better of input and SLSQP result per set (grid units).
+    mp : ndarray of float64, shape (M,)
+        Its MP (grid units).
+    """
+    out = np.array(points, dtype=np.float64)
+    mps = grid_mp(out, signs) if out.shape[0] else np.zeros(0)
+    with _single_blas_thread():
+        for i in range(out.shape[0]):
+            cand, value = _slsqp(out[i], signs[i], maxiter)
+            if value > mps[i]:
+                out[i], mps[i] = cand, value
+    return out, mps

@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ottag_db.generation.batch_ascent import AscentSchedule
+
 __all__ = ["RealizeEffort", "default_effort"]
 
 
@@ -27,7 +29,17 @@ class RealizeEffort:
       go to the search;
     - ``tilt_tol``: of the searched integer sets, those with MP ≥ (1 − ``tilt_tol``) · best
       (never crossing an MP step, see :mod:`ottag_db.generation.rounding`) compete on
-      :func:`~ottag_db.generation.rounding.tilt_failures`.
+      :func:`~ottag_db.generation.rounding.tilt_failures`;
+    - ``ascent``: when set, the continuous stage of a whole work unit is
+      :func:`~ottag_db.generation.batch_ascent.soft_min_ascent` (numpy, all sets at once)
+      from ``starts`` starts per set (the input, then random projective images) instead of
+      SLSQP; sets whose MP stays below ``polish_below`` (grid units) then get one SLSQP run
+      (``maxiter``) from their ascent result, and the integer search is
+      :func:`~ottag_db.generation.rounding.incremental_local_search` (``hops`` and
+      ``hard_starts`` are not used);
+    - ``chunk``: sets per work unit of :func:`~ottag_db.generation.realize.realize_all`
+      (0: :func:`~ottag_db.generation.realize.chunk_size`); the batched ascent gains from
+      larger units.
     """
 
     starts: int = 3
@@ -42,13 +54,18 @@ class RealizeEffort:
     exact_variants: int = 0
     exact_keep: int = 2
     tilt_tol: float = 0.03
+    ascent: AscentSchedule | None = None
+    polish_below: float = 0.0
+    chunk: int = 0
 
 
 def default_effort(k: int) -> RealizeEffort:
     """Search effort used for sets of ``k`` points.
 
     Few sets exist for ``k ≤ 7``, so they get many starts; for ``k = 8`` (3315 sets) the
-    budget is a few SLSQP runs each (multi-starts rarely change the optimum there).
+    budget is a few SLSQP runs each (multi-starts rarely change the optimum there). From
+    ``k = 9`` (158,817 sets) the continuous stage is the batched soft-min ascent, with
+    SLSQP only for the sets it leaves with a small MP.
 
     Parameters
     ----------
@@ -58,8 +75,20 @@ def default_effort(k: int) -> RealizeEffort:
     Returns
     -------
     RealizeEffort
-        The effort the bundled data were generated with.
+        The effort the bundled data were generated with (k ≤ 8; these must not change, or
+        ``generate`` no longer reproduces ``data/``).
     """
     if k <= 7:
         return RealizeEffort(starts=8, hops=16, roundings=64, searched_roundings=6, hard_below=np.inf, exact_variants=4)
-    return RealizeEffort(starts=3, hops=0, hard_below=2.3, exact_variants=4)
+    if k == 8:
+        return RealizeEffort(starts=3, hops=0, hard_below=2.3, exact_variants=4)
+    return RealizeEffort(
+        starts=1,
+        hops=0,
+        maxiter=100,
+        searched_roundings=2,
+        search_iters=100,
+        ascent=AscentSchedule(),
+        polish_below=5.0,
+        chunk=64,
+    )

@@ -21,12 +21,19 @@ from numpy.typing import ArrayLike, NDArray
 from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.types import StageProgress
 from ottag_db.errors import UsageError
+from ottag_db.generation.batch_ascent import soft_min_ascent
 from ottag_db.generation.checkpoint import BatchStore, StoredBatch, batch_digest
-from ottag_db.generation.continuous import optimize_continuous
+from ottag_db.generation.continuous import optimize_continuous, polish_slsqp, start_points
 from ottag_db.generation.effort import RealizeEffort, default_effort
 from ottag_db.generation.objective import triple_signs
 from ottag_db.generation.parallel import BatchRunner, Workers, open_workers
-from ottag_db.generation.rounding import best_roundings, exact_roundings, integer_local_search, tilt_choice
+from ottag_db.generation.rounding import (
+    best_roundings,
+    exact_roundings,
+    incremental_local_search,
+    integer_local_search,
+    tilt_choice,
+)
 
 __all__ = ["BatchDone", "RealizedSet", "chunk_size", "maximize_mp", "realize_all", "set_rng"]
 
@@ -115,6 +122,8 @@ def _realize_chunk(
     points, texts, seed, efforts = args
     k = points.shape[1]
     eff = efforts.get(k, default_effort(k)) if efforts else default_effort(k)
+    if eff.ascent is not None:
+        return _realize_chunk_batched(points, texts, seed, eff)
     conts: list[float] = []
     starts: list[NDArray[np.float64]] = []
     signs_list: list[NDArray[np.float64]] = []
@@ -129,7 +138,49 @@ def _realize_chunk(
         signs_list.append(np.broadcast_to(signs, (cands.shape[0], signs.size)))
         conts.append(cont_mp)
     found, mps = integer_local_search(np.concatenate(starts), np.concatenate(signs_list), eff.search_iters)
-    bounds = np.cumsum([0] + [s.shape[0] for s in starts]).tolist()
+    return _choose(found, mps, [s.shape[0] for s in starts], texts, conts, eff)
+
+
+def _realize_chunk_batched(
+    points: NDArray[np.float64], texts: list[str], seed: int, eff: RealizeEffort
+) -> list[RealizedSet]:
+    """Realize sets of one k with the batched ascent (``eff.ascent``), SLSQP only for the sets
+    it leaves below ``eff.polish_below``, and the incremental integer search.
+
+    Per set, the generator of :func:`set_rng` draws the projective starts, then the rounding
+    variants; every batched step works row by row, so each set's result is the one it gets
+    alone.
+    """
+    b, k, _ = points.shape
+    n_starts = max(eff.starts, 1)
+    rngs = [set_rng(seed, text) for text in texts]
+    signs = triple_signs(points)
+    starts = np.stack([start_points(p, rng, n_starts) for p, rng in zip(points, rngs, strict=True)])
+    found, found_mp = soft_min_ascent(starts.reshape(-1, k, 2), np.repeat(signs, n_starts, axis=0), eff.ascent)
+    found_mp = found_mp.reshape(b, n_starts)
+    pick = np.argmax(found_mp, axis=1)
+    rows = np.arange(b)
+    conts = found.reshape(b, n_starts, k, 2)[rows, pick]
+    cont_mps = found_mp[rows, pick]
+    lagging = np.flatnonzero(cont_mps < eff.polish_below)
+    conts[lagging], cont_mps[lagging] = polish_slsqp(conts[lagging], signs[lagging], eff.maxiter)
+    cands = [best_roundings(conts[i], signs[i], eff, rngs[i]) for i in range(b)]
+    sizes = [c.shape[0] for c in cands]
+    found_int, mps = incremental_local_search(np.concatenate(cands), np.repeat(signs, sizes, axis=0), eff.search_iters)
+    return _choose(found_int, mps, sizes, texts, [float(m) for m in cont_mps], eff)
+
+
+def _choose(
+    found: NDArray[np.int64],
+    mps: NDArray[np.float64],
+    sizes: list[int],
+    texts: list[str],
+    conts: list[float],
+    eff: RealizeEffort,
+) -> list[RealizedSet]:
+    """The tilt-robust pick among each set's searched candidates (``sizes[i]`` rows each), the
+    ID kept or an error."""
+    bounds = np.cumsum([0, *sizes]).tolist()
     picks = [lo + tilt_choice(found[lo:hi], mps[lo:hi], eff.tilt_tol) for lo, hi in itertools.pairwise(bounds)]
     chosen = found[picks]
     chosen_mp = mps[picks]
@@ -181,6 +232,11 @@ def _chunks(
     """Work units of :func:`chunk_size` sets (one per set where a unit would mix k)."""
     total = len(pts_list)
     size = chunk_size(total)
+    ks = {p.shape[0] for p in pts_list}
+    if len(ks) == 1:  # one k: its effort may ask for larger units (a function of k only)
+        (k,) = ks
+        eff = efforts.get(k, default_effort(k)) if efforts else default_effort(k)
+        size = eff.chunk or size
     chunks: list[_Chunk] = []
     for start in range(0, total, size):
         block = pts_list[start : start + size]
