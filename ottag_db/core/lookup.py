@@ -27,7 +27,13 @@ class LookupEntry:
     - ``layouts``: ``layouts[r]`` the triangles printed for ``realizations[r]`` as triples of
       canonical labels (an empty tuple when the store does not know them; the whole field
       empty when it knows none). Soft decoding accepts a corrected reading only when its
-      triangles are these (:mod:`ottag_db.decode.soft`).
+      triangles are these (:mod:`ottag_db.decode.soft`);
+    - ``placements``: ``placements[r]`` the ``(2, 3)`` affine map (float64) that printed
+      ``realizations[r]`` into the data area (grid → data-area units [0, 1]², x right, y
+      down; :func:`ottag_db.core.placement.tag_placements`), None when the store does not
+      know it; the whole field empty when it knows none (a portable dictionary file).
+      Verification then checks that the printed points land where the data-area corners
+      put them (:mod:`ottag_db.decode.placement_check`).
     """
 
     lambda_text: str
@@ -38,6 +44,7 @@ class LookupEntry:
     tag: int | None = None
     extra: Mapping[str, object] = field(default_factory=dict)
     layouts: tuple[tuple[tuple[int, int, int], ...], ...] = ()
+    placements: tuple[NDArray[np.float64] | None, ...] = ()
 
 
 @runtime_checkable

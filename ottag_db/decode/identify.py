@@ -203,5 +203,6 @@ def _as_printed(
         entry,
         realizations=tuple(entry.realizations[r] for r in keep),
         layouts=tuple(entry.layouts[r] for r in keep),
+        placements=tuple(entry.placements[r] for r in keep) if entry.placements else (),
     )
     return kept, labs

@@ -72,7 +72,15 @@ REJECTION_REASONS: dict[RejectReason, str] = {
 
 #: The stages timed by :meth:`ottag_db.decode.Detector.detect_with_report`, in pipeline order.
 StageName = Literal[
-    "image", "candidates", "segmentation", "triangles", "refine", "cluster", "identify", "verify", "upsample",
+    "image",
+    "candidates",
+    "segmentation",
+    "triangles",
+    "refine",
+    "cluster",
+    "identify",
+    "verify",
+    "upsample",
     "rectify",
 ]
 STAGES: tuple[StageName, ...] = get_args(StageName)
@@ -205,7 +213,8 @@ class DetectorParams:
       views a vertex lost at a sliver tip can leave a set that fits another order type within
       the bound (8-point tags read as 6 or 7 points at 82–85°, HEAD's decoder, benchmarks/
       decode_sweeps.py); tags drawn with other triangles are then read only at milder tilts
-      (0: never checked).
+      (0: never checked). Readings with a lost vertex whose triangles do match are caught by
+      :mod:`~ottag_db.decode.placement_check` in verification.
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
     ``min_margin_px``:

@@ -10,6 +10,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry
+from ottag_db.decode.placement_check import (
+    PLACEMENT_BOUND_FACTOR,
+    PLACEMENT_MAX_UNITS,
+    PlacementError,
+    apply_homography,
+    placement_error,
+)
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
 __all__ = [
@@ -171,18 +178,6 @@ def map_corners_back(hmat: _F64, corners: _F64) -> list[list[float]] | None:
     return out
 
 
-def apply_homography(hmat: _F64, pts: _F64) -> _F64:
-    """Map ``(n, 2)`` points by a ``(3, 3)`` homography (inf/NaN where a point maps to infinity)."""
-    ph = pts @ hmat[:, :2].T + hmat[:, 2]
-    w = ph[:, 2:3]
-    if w.all():
-        out: _F64 = ph[:, :2] / w
-        return out
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out = ph[:, :2] / w
-    return out
-
-
 def tag_plane_corner_order(corners: _F64, plane: list[list[float]]) -> _F64:
     """``corners`` reordered tag top-left, top-right, bottom-right, bottom-left.
 
@@ -214,7 +209,8 @@ def tag_plane_corner_order(corners: _F64, plane: list[list[float]]) -> _F64:
 class _Fit:
     """One (realization, labeling) fit: largest point–line error (px), parallelogram error of
     the corners mapped back (rel. to the side), homography, detected points in label order,
-    the realization, the corners in the tag plane and the realization mapped to the image."""
+    the realization, the corners in the tag plane, the realization mapped to the image, the
+    realization's index in the entry and the model point of each side line."""
 
     err: float
     par: float
@@ -223,6 +219,8 @@ class _Fit:
     src: _F64
     plane: list[list[float]]
     mapped: _F64
+    real: int
+    rep: NDArray[np.intp]
 
 
 @dataclass(frozen=True)
@@ -273,7 +271,9 @@ def assess(
 
     Every (realization, minimal labeling) is mapped onto the points by a homography fitted to
     the side lines; with ``params.verify`` the best fit must stay within the reprojection
-    bound and (with ``check_quad``) map the data-area corners back to a parallelogram.
+    bound, lie where the tag printed its points when the entry knows its placements
+    (:mod:`~ottag_db.decode.placement_check`) and (with ``check_quad``) map the data-area
+    corners back to a parallelogram.
 
     Parameters
     ----------
@@ -299,8 +299,8 @@ def assess(
     Returns
     -------
     Assessment
-        The detection, or a ``"verification"`` or ``"quad_inconsistent"`` rejection, with the
-        fit error and the bound.
+        The detection, or a ``"verification"`` (fit or printed placement) or
+        ``"quad_inconsistent"`` rejection, with the fit error and the bound.
     """
     p = params
     side = math.sqrt(quad.area)
@@ -323,6 +323,11 @@ def assess(
         if not passing:
             detail = f"reprojection error {min(f.err for f in fits):.2f} px > {bound:.2f} px"
             return Assessment(Rejection("verification", detail, lambda_text), error, bound)
+        if entry.placements and system is not None:  # (there are fits: system is not None)
+            placed = _placed(entry, passing, system, corners, bound)
+            if isinstance(placed, str):
+                return Assessment(Rejection("verification", placed, lambda_text), error, bound)
+            passing = placed
         if p.check_quad:
             fits = [f for f in passing if f.par <= p.max_quad_error]
             if not fits:
@@ -347,6 +352,32 @@ def assess(
     return Assessment(detection, error, bound)
 
 
+def _placed(entry: LookupEntry, fits: list[_Fit], system: LineSystem, corners: _F64, bound: float) -> list[_Fit] | str:
+    """The fits whose reading agrees with the stored placement (see
+    :data:`PLACEMENT_BOUND_FACTOR`; the corners in the tag order of the fit), or why none
+    does. A fit of a realization without a known placement is kept."""
+    kept: list[_Fit] = []
+    closest = PlacementError(math.inf, math.inf)
+    for f in fits:
+        plc = entry.placements[f.real] if f.real < len(entry.placements) else None
+        if plc is None:
+            kept.append(f)
+            continue
+        e = placement_error(
+            plc, f.src, f.dst, (system.nrm, system.off), f.rep, tag_plane_corner_order(corners, f.plane)
+        )
+        if e.image_px <= PLACEMENT_BOUND_FACTOR * bound or e.plane <= PLACEMENT_MAX_UNITS:
+            kept.append(f)
+        elif e.image_px < closest.image_px:
+            closest = e
+    if kept:
+        return kept
+    return (
+        f"points {closest.image_px:.2f} px (> {PLACEMENT_BOUND_FACTOR * bound:.2f}) and "
+        f"{closest.plane:.2f} of the side (> {PLACEMENT_MAX_UNITS}) from the printed placement"
+    )
+
+
 def _fits(
     entry: LookupEntry, pts: _F64, system: LineSystem, minimal: Sequence[tuple[int, ...]], corners: _F64
 ) -> list[_Fit]:
@@ -354,7 +385,7 @@ def _fits(
     corners back to finite points."""
     fits: list[_Fit] = []
     k = len(pts)
-    for real in entry.realizations:
+    for index, real in enumerate(entry.realizations):
         src = np.asarray(real, dtype=np.float64)
         if src.shape != pts.shape:
             continue
@@ -383,5 +414,5 @@ def _fits(
             par = math.hypot(g0x - g1x + g2x - g3x, g0y - g1y + g2y - g3y) / max(sides, 1e-9)
             if not math.isfinite(par):
                 par = math.inf
-            fits.append(_Fit(err, par, hmat, dst, src, g, mapped))
+            fits.append(_Fit(err, par, hmat, dst, src, g, mapped, index, rep))
     return fits

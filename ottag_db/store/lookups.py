@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -56,18 +57,24 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
             raise NotFoundError("the database holds no order types: run `ottag-db import` first")
         reals: dict[int, list[NDArray[np.float64]]] = {}
         layouts: dict[int, list[_Layout]] = {}
+        placements: dict[int, list[_Placement]] = {}
         rq = (
             select(
-                Realization.order_type_id, Realization.coordinates, Realization.canonical_labeling, LayoutRow.triangles
+                Realization.order_type_id,
+                Realization.coordinates,
+                Realization.canonical_labeling,
+                LayoutRow.triangles,
+                LayoutRow.placement,
             )
             .outerjoin(LayoutRow, LayoutRow.realization_id == Realization.id)
             .order_by(Realization.order_type_id, Realization.mp.desc(), Realization.id)
         )
         if ks:
             rq = rq.join(OrderType, OrderType.id == Realization.order_type_id).where(OrderType.k.in_(list(ks)))
-        for ot_id, blob, labeling, triangles in s.execute(rq):
+        for ot_id, blob, labeling, triangles, placement in s.execute(rq):
             reals.setdefault(ot_id, []).append(_canonical_points(blob, labeling))
             layouts.setdefault(ot_id, []).append(_canonical_layout(triangles, labeling))
+            placements.setdefault(ot_id, []).append(_placement(placement))
     entries = [
         LookupEntry(
             lambda_text=text,
@@ -76,6 +83,7 @@ def load_lookup(db: Database, *, ks: Sequence[int] = ()) -> MemoryLookup:
             unique_min=bool(uniq),
             realizations=tuple(reals.get(ot_id, [])),
             layouts=_known(layouts.get(ot_id, [])),
+            placements=_known_placements(placements.get(ot_id, [])),
         )
         for ot_id, k, text, uniq in ots
     ]
@@ -88,7 +96,8 @@ class MemberGeometry:
     type and the realizations it is verified against (``(k, 2)`` float64, rows in canonical
     label order, grid units, screen convention) with, when known, the triangles printed for
     each (``layouts[r]`` for ``realizations[r]``, triples of canonical labels; empty when
-    unknown)."""
+    unknown) and the placement each was printed with (``placements[r]``: ``(2, 3)`` grid →
+    data-area units, None when unknown; empty when none is known)."""
 
     number: int
     polarity: str
@@ -98,6 +107,7 @@ class MemberGeometry:
     unique_min: bool
     realizations: tuple[NDArray[np.float64], ...]
     layouts: tuple[tuple[tuple[int, int, int], ...], ...] = ()
+    placements: tuple[NDArray[np.float64] | None, ...] = ()
 
 
 def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
@@ -124,11 +134,13 @@ def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
     for text, group in grouped.items():
         reals: dict[bytes, NDArray[np.float64]] = {}
         lays: dict[bytes, _Layout] = {}
+        places: dict[bytes, _Placement] = {}
         for m in group:
             for i, r in enumerate(m.realizations):
                 key = np.ascontiguousarray(r, dtype=np.float64).tobytes()
                 reals.setdefault(key, r)
                 lays.setdefault(key, m.layouts[i] if i < len(m.layouts) else ())
+                places.setdefault(key, m.placements[i] if i < len(m.placements) else None)
         first = group[0]
         entries.append(
             LookupEntry(
@@ -140,6 +152,7 @@ def member_lookup(name: str, members: Iterable[MemberGeometry]) -> MemoryLookup:
                 tag=min(m.number for m in group),
                 extra={"tags": {m.polarity: m.number for m in group}, "dictionary": name},
                 layouts=_known([lays[key] for key in reals]),
+                placements=_known_placements([places[key] for key in reals]),
             )
         )
     return MemoryLookup(entries)
@@ -191,23 +204,28 @@ def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
         ).all()
         pinned = {int(r[2]) for r in rows if r[2] is not None}
         loose = {int(r[3]) for r in rows if r[2] is None}
-        by_id: dict[int, tuple[NDArray[np.float64], _Layout]] = {}
-        by_type: dict[int, list[tuple[NDArray[np.float64], _Layout]]] = {}
+        by_id: dict[int, tuple[NDArray[np.float64], _Layout, _Placement]] = {}
+        by_type: dict[int, list[tuple[NDArray[np.float64], _Layout, _Placement]]] = {}
         rq = select(
             Realization.id,
             Realization.order_type_id,
             Realization.coordinates,
             Realization.canonical_labeling,
             LayoutRow.triangles,
+            LayoutRow.placement,
         ).outerjoin(LayoutRow, LayoutRow.realization_id == Realization.id)
         for part in _chunks(sorted(pinned)):
-            for rid, _ot, blob, labeling, tris in s.execute(rq.where(Realization.id.in_(part))):
-                by_id[int(rid)] = (_canonical_points(blob, labeling), _canonical_layout(tris, labeling))
+            for rid, _ot, blob, labeling, tris, plc in s.execute(rq.where(Realization.id.in_(part))):
+                by_id[int(rid)] = (
+                    _canonical_points(blob, labeling),
+                    _canonical_layout(tris, labeling),
+                    _placement(plc),
+                )
         for part in _chunks(sorted(loose)):
             q = rq.where(Realization.order_type_id.in_(part)).order_by(Realization.mp.desc(), Realization.id)
-            for _rid, ot, blob, labeling, tris in s.execute(q):
+            for _rid, ot, blob, labeling, tris, plc in s.execute(q):
                 by_type.setdefault(int(ot), []).append(
-                    (_canonical_points(blob, labeling), _canonical_layout(tris, labeling))
+                    (_canonical_points(blob, labeling), _canonical_layout(tris, labeling), _placement(plc))
                 )
     members = []
     for number, polarity, pinned_id, ot_id, k, text, uniq in rows:
@@ -222,6 +240,7 @@ def dictionary_lookup(db: Database, name: str | None) -> MemoryLookup:
                 unique_min=bool(uniq),
                 realizations=tuple(g[0] for g in geoms),
                 layouts=_known([g[1] for g in geoms]),
+                placements=_known_placements([g[2] for g in geoms]),
             )
         )
     return member_lookup(name, members)
@@ -251,6 +270,24 @@ def _canonical_layout(triangles: str | None, labeling: str) -> _Layout:
 def _known(layouts: Sequence[_Layout]) -> tuple[_Layout, ...]:
     """The layouts of an entry's realizations, or ``()`` when none is known."""
     return tuple(layouts) if any(layouts) else ()
+
+
+_Placement = NDArray[np.float64] | None
+
+
+def _placement(text: str | None) -> _Placement:
+    """A stored placement (JSON of the ``(2, 3)`` map grid → data-area units) as an array;
+    None for a realization without a stored layout. Rows of the realization are reordered to
+    canonical labels, but a point keeps its coordinates, so the map applies unchanged."""
+    if not text:
+        return None
+    m = np.asarray(json.loads(text), dtype=np.float64)
+    return m if m.shape == (2, 3) and np.isfinite(m).all() else None
+
+
+def _known_placements(placements: Sequence[_Placement]) -> tuple[_Placement, ...]:
+    """The placements of an entry's realizations, or ``()`` when none is known."""
+    return tuple(placements) if any(p is not None for p in placements) else ()
 
 
 def _canonical_points(blob: bytes, labeling: str) -> NDArray[np.float64]:

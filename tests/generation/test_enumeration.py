@@ -110,7 +110,7 @@ def test_candidates_hit_every_cell_of_a_square() -> None:
 
 def test_bad_arguments() -> None:
     with pytest.raises(UsageError):
-        enumerate_order_types(9)
+        enumerate_order_types(10)
     with pytest.raises(UsageError):
         generate_database(max_k=2, out_dir=Path("unused"))
     with pytest.raises(UsageError):

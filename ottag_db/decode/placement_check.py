@@ -1,0 +1,146 @@
+"""The printed-placement check: a reading must lie where its tag printed its points.
+
+A printed tag is its stored realization placed into the data area by its stored affine
+placement (:mod:`ottag_db.core.placement`); the refined data-area corners give the homography
+from the data area to the image, so each detected point has a printed position that does not
+depend on the verification's fit. :func:`~ottag_db.decode.verify.assess` applies it to every
+reading whose lookup entry knows its placements (a portable dictionary file does not). It
+matters at grazing views, where a tag that lost a triangle can show another order type's
+layout and fit its realization by a free homography (issue 13: 8-point tags read as 6-point
+types at 82–84°); at milder views correct readings stay far inside it (see
+:data:`PLACEMENT_BOUND_FACTOR`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "PLACEMENT_BOUND_FACTOR",
+    "PLACEMENT_MAX_UNITS",
+    "PlacementError",
+    "apply_homography",
+    "placement_error",
+    "square_homography",
+]
+
+_F64 = NDArray[np.float64]
+
+
+def apply_homography(hmat: _F64, pts: _F64) -> _F64:
+    """Map ``(n, 2)`` points by a ``(3, 3)`` homography (inf/NaN where a point maps to infinity)."""
+    ph = pts @ hmat[:, :2].T + hmat[:, 2]
+    w = ph[:, 2:3]
+    if w.all():
+        out: _F64 = ph[:, :2] / w
+        return out
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = ph[:, :2] / w
+    return out
+
+
+#: The placement check (:func:`placement_error`) refuses a reading only when it
+#: misses the printed placement both ways: in the image by more than this many reprojection
+#: bounds across the side lines, and in the data area by more than ``PLACEMENT_MAX_UNITS``.
+#: Either alone is not enough. Correct readings at 70–86° (benchmarks/decode_sweeps.py frames,
+#: seeds 2018, 7, 11: 360 detections) miss by up to 4.8 bounds in the image (vertices at
+#: blurred sliver tips, with the corners fixed, cannot be absorbed by a free homography) and,
+#: at 86°, by up to 0.22 of the side in the data area (a pixel across the compressed axis is a
+#: large part of it); the 5 wrong readings there (8-point tags that lost a triangle, read as
+#: 6-point types showing the same triangles) missed by 2.2–6.6 bounds and 0.26–0.50 of the
+#: side. The rule kept 359 of the 360 and refused all 5. At 0–65° (seed 2018, 240 detections)
+#: correct readings missed by at most 1.32 bounds and 0.061 of the side.
+PLACEMENT_BOUND_FACTOR = 2.0
+#: See :data:`PLACEMENT_BOUND_FACTOR`; data-area units (fraction of its side).
+PLACEMENT_MAX_UNITS = 0.2
+
+#: The data-area corners in data-area units: top-left, top-right, bottom-right, bottom-left.
+_UNIT_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class PlacementError:
+    """How far a reading lies from its tag as printed: ``image_px`` the largest distance (px)
+    of a printed point, mapped by the data-area corners, to the side lines through its detected
+    point; ``plane`` the largest distance (data-area units) of a detected point, mapped back by
+    the corners, to its printed position. ``inf`` when the corners give no homography."""
+
+    image_px: float
+    plane: float
+
+
+def square_homography(corners: _F64) -> _F64 | None:
+    """Homography data-area units → image from the 4 corners (unit square ↔ ``corners``).
+
+    Parameters
+    ----------
+    corners : numpy.ndarray
+        ``(4, 2)`` data-area corners (image pixels): tag top-left, top-right, bottom-right,
+        bottom-left.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``(3, 3)``, ``H[2, 2] = 1``; None when the corners are degenerate.
+    """
+    a = np.zeros((8, 8))
+    for i, ((x, y), (u, v)) in enumerate(zip(_UNIT_SQUARE.tolist(), corners.tolist(), strict=True)):
+        a[2 * i] = [x, y, 1, 0, 0, 0, -u * x, -u * y]
+        a[2 * i + 1] = [0, 0, 0, x, y, 1, -v * x, -v * y]
+    try:
+        h = np.linalg.solve(a, corners.reshape(8))
+    except np.linalg.LinAlgError:
+        return None
+    return np.append(h, 1.0).reshape(3, 3) if np.isfinite(h).all() else None
+
+
+def placement_error(
+    placement: _F64, src: _F64, dst: _F64, lines: tuple[_F64, _F64], rep: NDArray[np.intp], corners: _F64
+) -> PlacementError:
+    """How far the detected points are from where the tag printed them.
+
+    A printed tag is its realization placed into the data area by the stored affine
+    ``placement``; the refined data-area corners give the homography from the data area to the
+    image, so every detected point has a printed position, independent of the fit.
+
+    Parameters
+    ----------
+    placement : numpy.ndarray
+        ``(2, 3)`` affine map of the realization, grid → data-area units.
+    src : numpy.ndarray
+        ``(k, 2)`` the realization (grid units, canonical label order).
+    dst : numpy.ndarray
+        ``(k, 2)`` the detected points in the same label order (image pixels).
+    lines : tuple of numpy.ndarray
+        The side lines of the detected points, stacked: unit normals ``(m, 2)`` and offsets
+        ``(m,)`` (n·x = c, image pixels; :class:`~ottag_db.decode.verify.LineSystem`).
+    rep : numpy.ndarray
+        ``rep[l]``: index in ``src`` of the point of side line ``l`` (the labeling).
+    corners : numpy.ndarray
+        ``(4, 2)`` data-area corners in tag order (top-left, top-right, bottom-right,
+        bottom-left; image pixels).
+
+    Returns
+    -------
+    PlacementError
+        In the image (px, across the side lines, as the fit error) and in the data area.
+    """
+    hmat = square_homography(corners)
+    if hmat is None:
+        return PlacementError(math.inf, math.inf)
+    placed = src @ placement[:, :2].T + placement[:, 2]
+    mapped = apply_homography(hmat, placed)
+    try:
+        back = apply_homography(np.asarray(np.linalg.inv(hmat), dtype=np.float64), dst)
+    except np.linalg.LinAlgError:
+        return PlacementError(math.inf, math.inf)
+    if not (np.isfinite(mapped).all() and np.isfinite(back).all()):
+        return PlacementError(math.inf, math.inf)
+    nrm, off = lines
+    image_px = float(np.abs((nrm * mapped[rep]).sum(axis=1) - off).max())
+    plane = float(np.sqrt(((back - placed) ** 2).sum(axis=1)).max())
+    return PlacementError(image_px, plane)
