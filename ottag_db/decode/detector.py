@@ -25,16 +25,12 @@ from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
 from ottag_db.decode.candidates import Binarization, around_detection, find_quads, same_quad, same_tag
-from ottag_db.decode.cluster import cluster_hypotheses
-from ottag_db.decode.identify import Catalogue, identify
+from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.reading import read_area
 from ottag_db.decode.rectify import read_rectified, wants_rectified
-from ottag_db.decode.refine import refine
-from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, then_alternatives
-from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import (
-    Decomposition,
     Detection,
     DetectionReport,
     DetectorParams,
@@ -59,9 +55,6 @@ _RETRY_UPSAMPLED: frozenset[RejectReason] = frozenset(
 #: Larger data areas (px) are not upsampled (their slivers are wide enough; bounds the cost).
 _UPSAMPLE_MAX_SIDE = 640.0
 _UPSAMPLE = 2.0
-#: More triangles than this cannot hold 9 points (each triangle has 3 of them, two triangles share
-#: at most one): the component soup of a non-tag.
-_MAX_TRIANGLES = 12
 
 
 class Detector:
@@ -239,66 +232,7 @@ def read_quad(
         The first hypothesis that reads, else the most telling rejection (the first one after
         the triangle checks, if any hypothesis got that far).
     """
-    p = catalogue.params
-    area = segment(gray, quad, p)
-    clock.lap("segmentation")
-    if isinstance(area, Rejection):
-        return area
-    side = area.side
-    decomps = decompose(area.fg, side, p, alternatives=False)
-    if isinstance(decomps, Rejection) and alternatives:
-        # no plain decomposition: try the alternatives (opening, slit cuts) right away
-        decomps = decompose(area.fg, side, p, alternatives=True)
-    clock.lap("triangles")
-    if isinstance(decomps, Rejection):
-        detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
-        return Rejection(decomps.reason, detail, decomposed=False)
-    if not decomps or decomps[0].count == 0:
-        return Rejection("no_triangles")
-    if decomps[0].count > _MAX_TRIANGLES:
-        return Rejection("non_triangle", f"{decomps[0].count} triangles")
-
-    def more() -> list[Decomposition] | Rejection:
-        alts = decompose(area.fg, side, p, alternatives=True) if alternatives else []
-        clock.lap("triangles")
-        return alts
-
-    roi_f = area.roi.astype(np.float32)
-    tol = max(p.merge_radius_px, p.merge_radius_rel * side)
-    sure = max(2 * p.merge_radius_px, 2 * p.merge_radius_rel * side)
-    first: Rejection | None = None
-    corners_l: _F64 | None = None
-    corners = quad.corners
-    for dec in then_alternatives(decomps, more):
-        # sub-pixel triangle sides on the grey image (with the data-area sides, first time)
-        tris, refined = refine(roi_f, dec, area.level, area.quad if corners_l is None else None)
-        if corners_l is None:
-            corners_l = area.quad
-            if (
-                refined is not None
-                and np.isfinite(refined).all()
-                and np.abs(refined - area.quad).max() <= 0.1 * side + 3
-            ):
-                corners_l = refined
-            corners = corners_l + area.origin
-        clock.lap("refine")
-        bad = bad_triangles(tris.vertices, corners_l, side)
-        if bad is not None:
-            if first is None:
-                first = bad
-            continue
-        c_img = tris.offset + tris.normal @ area.origin  # side lines in image coordinates
-        hypotheses = cluster_hypotheses(tris, 0.15 * side, sure, tol)
-        clock.lap("cluster")
-        for hyp in hypotheses:
-            lines = [(tris.normal[ids], c_img[ids]) for ids in hyp.line_ids]
-            result = identify(hyp.points + area.origin, lines, corners, quad, catalogue, clock)
-            clock.lap("identify")
-            if isinstance(result, Detection):
-                return result
-            if first is None or first.reason == "non_triangle":
-                first = result
-    return first if first is not None else Rejection("non_triangle", "degenerate vertex")
+    return read_area(gray, quad, catalogue.params, catalogue, alternatives, clock)[0]
 
 
 def read_upsampled(

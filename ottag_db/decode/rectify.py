@@ -32,13 +32,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.candidates import squeeze
-from ottag_db.decode.cluster import cluster_hypotheses
-from ottag_db.decode.identify import Catalogue, identify
+from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.profile import StageClock
-from ottag_db.decode.refine import refine
-from ottag_db.decode.segmentation import decompose, segment, then_alternatives
-from ottag_db.decode.triangles import bad_triangles
-from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
+from ottag_db.decode.reading import read_area
+from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
 __all__ = [
     "RECTIFY_MAX_PX",
@@ -68,8 +65,6 @@ RECTIFY_PAD = 0.08
 #: previous view, when they moved by at least RECTIFY_MOVED_PX (frame px).
 RECTIFY_PASSES = 2
 RECTIFY_MOVED_PX = 0.3
-#: More triangles than this cannot hold 9 points (as in the detector).
-_MAX_TRIANGLES = 12
 
 
 def wants_rectified(quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams) -> bool:
@@ -237,52 +232,7 @@ def _read_view(
 ) -> tuple[Detection | None, _F64 | None]:
     """The first reading of ``view`` that identifies in frame pixels (or None), and the data-area
     corners refined in the view, mapped to the frame (None when no decomposition was found)."""
-    p = catalogue.params
-    vp = view_params(p, view.size / math.sqrt(max(quad.area, 1.0)))
+    vp = view_params(catalogue.params, view.size / math.sqrt(max(quad.area, 1.0)))
     vquad = Quad(quad.polarity, view.corners, view.size * view.size)
-    area = segment(view.image, vquad, vp)
-    clock.lap("segmentation")
-    if isinstance(area, Rejection):
-        return None, None
-    side = area.side
-    decomps = decompose(area.fg, side, vp, alternatives=False)
-    if isinstance(decomps, Rejection):
-        decomps = decompose(area.fg, side, vp, alternatives=True)
-    clock.lap("triangles")
-    if isinstance(decomps, Rejection) or not decomps or not 0 < decomps[0].count <= _MAX_TRIANGLES:
-        return None, None
-
-    def more() -> list[Decomposition] | Rejection:
-        alts = decompose(area.fg, side, vp, alternatives=True)
-        clock.lap("triangles")
-        return alts
-
-    roi_f = area.roi.astype(np.float32)
-    tol = max(vp.merge_radius_px, vp.merge_radius_rel * side)
-    sure = max(2 * vp.merge_radius_px, 2 * vp.merge_radius_rel * side)
-    corners_v: _F64 | None = None
-    frame_corners: _F64 | None = None
-    for dec in then_alternatives(decomps, more):
-        tris, refined = refine(roi_f, dec, area.level, area.quad if corners_v is None else None)
-        if corners_v is None:
-            corners_v = area.quad
-            if (
-                refined is not None
-                and np.isfinite(refined).all()
-                and np.abs(refined - area.quad).max() <= 0.1 * side + 3
-            ):
-                corners_v = refined
-            frame_corners = view.points_to_frame(corners_v + area.origin)
-        clock.lap("refine")
-        if frame_corners is None or bad_triangles(tris.vertices, corners_v, side) is not None:
-            continue
-        n_img, c_img = view.lines_to_frame(tris.normal, tris.offset + tris.normal @ area.origin)
-        for hyp in cluster_hypotheses(tris, 0.15 * side, sure, tol):
-            clock.lap("cluster")
-            pts = view.points_to_frame(hyp.points + area.origin)
-            lines = [(n_img[ids], c_img[ids]) for ids in hyp.line_ids]
-            result = identify(pts, lines, frame_corners, quad, catalogue, clock)
-            clock.lap("identify")
-            if isinstance(result, Detection):
-                return result, frame_corners
-    return None, frame_corners
+    result, corners = read_area(view.image, vquad, vp, catalogue, True, clock, to_frame=view, frame_quad=quad)
+    return (result if isinstance(result, Detection) else None), corners

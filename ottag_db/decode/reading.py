@@ -1,0 +1,154 @@
+"""Read one data area: segmentation → triangles → refine → cluster → identify.
+
+The direct reading (:func:`ottag_db.decode.detector.read_quad`, also on the 2× upsampled data
+area) and the rectified retry (:mod:`ottag_db.decode.rectify`) run the same stages on an
+image; they differ only in where the points are identified. A :class:`FrameMap` takes the
+points, side lines and corners measured in the image to the frame's pixels (the rectified
+view's inverse homography); without one they are identified where they were measured.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.decode.cluster import cluster_hypotheses
+from ottag_db.decode.identify import Catalogue, identify
+from ottag_db.decode.profile import StageClock
+from ottag_db.decode.refine import refine
+from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, then_alternatives
+from ottag_db.decode.triangles import bad_triangles
+from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
+
+__all__ = ["MAX_TRIANGLES", "FrameMap", "read_area"]
+
+_F64 = NDArray[np.float64]
+
+#: More triangles than this cannot hold a tag's points (each triangle has 3 of them, two
+#: triangles share at most one): the component soup of a non-tag.
+MAX_TRIANGLES = 12
+
+
+class FrameMap(Protocol):
+    """Maps an image (e.g. a rectified view) to the frame the points are identified in."""
+
+    def points_to_frame(self, pts: _F64) -> _F64:
+        """``(m, 2)`` image points in frame pixels."""
+        ...
+
+    def lines_to_frame(self, normal: _F64, offset: _F64) -> tuple[_F64, _F64]:
+        """Lines ``n·x = c`` of the image as unit-normal lines of the frame."""
+        ...
+
+
+def read_area(
+    image: NDArray[np.uint8],
+    quad: Quad,
+    params: DetectorParams,
+    catalogue: Catalogue,
+    alternatives: bool,
+    clock: StageClock,
+    to_frame: FrameMap | None = None,
+    frame_quad: Quad | None = None,
+) -> tuple[Detection | Rejection, _F64 | None]:
+    """Read the data area of ``quad`` in ``image``; identify each point hypothesis in the frame.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        ``(H, W)`` uint8 grey image holding the data area.
+    quad : Quad
+        The candidate in ``image`` pixels.
+    params : DetectorParams
+        Settings of the segmentation, triangle and clustering stages (lengths in ``image``
+        pixels).
+    catalogue : Catalogue
+        Lookup and settings of identification and verification (lengths in frame pixels).
+    alternatives : bool
+        Also try the alternative decompositions (opening, slit cuts, strict fits) when the
+        first does not read.
+    clock : StageClock
+        Charged per stage.
+    to_frame : FrameMap, optional
+        From ``image`` to the frame; None when ``image`` is the frame's scale and place
+        (points are identified as measured).
+    frame_quad : Quad, optional
+        The candidate in frame pixels, as identification reports it (``quad`` when None).
+
+    Returns
+    -------
+    result : Detection or Rejection
+        The first hypothesis that reads, else the most telling rejection (the first one
+        after the triangle checks, if any hypothesis got that far).
+    corners : numpy.ndarray or None
+        ``(4, 2)`` data-area corners (refined on the grey levels when they could be) in frame
+        pixels, None when no decomposition was found.
+    """
+    area = segment(image, quad, params)
+    clock.lap("segmentation")
+    if isinstance(area, Rejection):
+        return area, None
+    side = area.side
+    decomps = decompose(area.fg, side, params, alternatives=False)
+    if isinstance(decomps, Rejection) and alternatives:
+        # no plain decomposition: try the alternatives (opening, slit cuts) right away
+        decomps = decompose(area.fg, side, params, alternatives=True)
+    clock.lap("triangles")
+    if isinstance(decomps, Rejection):
+        detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
+        return Rejection(decomps.reason, detail, decomposed=False), None
+    if not decomps or decomps[0].count == 0:
+        return Rejection("no_triangles"), None
+    if decomps[0].count > MAX_TRIANGLES:
+        return Rejection("non_triangle", f"{decomps[0].count} triangles"), None
+
+    def more() -> list[Decomposition] | Rejection:
+        alts = decompose(area.fg, side, params, alternatives=True) if alternatives else []
+        clock.lap("triangles")
+        return alts
+
+    roi_f = area.roi.astype(np.float32)
+    tol = max(params.merge_radius_px, params.merge_radius_rel * side)
+    sure = max(2 * params.merge_radius_px, 2 * params.merge_radius_rel * side)
+    first: Rejection | None = None
+    corners_l: _F64 | None = None
+    corners = quad.corners  # replaced by the refined corners before any identification
+    for dec in then_alternatives(decomps, more):
+        # sub-pixel triangle sides on the grey image (with the data-area sides, first time)
+        tris, refined = refine(roi_f, dec, area.level, area.quad if corners_l is None else None)
+        if corners_l is None:
+            corners_l = area.quad
+            if (
+                refined is not None
+                and np.isfinite(refined).all()
+                and np.abs(refined - area.quad).max() <= 0.1 * side + 3
+            ):
+                corners_l = refined
+            corners = corners_l + area.origin
+            if to_frame is not None:
+                corners = to_frame.points_to_frame(corners)
+        clock.lap("refine")
+        bad = bad_triangles(tris.vertices, corners_l, side)
+        if bad is not None:
+            if first is None:
+                first = bad
+            continue
+        normal, offset = tris.normal, tris.offset + tris.normal @ area.origin  # side lines in image pixels
+        if to_frame is not None:
+            normal, offset = to_frame.lines_to_frame(normal, offset)
+        hypotheses = cluster_hypotheses(tris, 0.15 * side, sure, tol)
+        clock.lap("cluster")
+        for hyp in hypotheses:
+            pts = hyp.points + area.origin
+            if to_frame is not None:
+                pts = to_frame.points_to_frame(pts)
+            lines = [(normal[ids], offset[ids]) for ids in hyp.line_ids]
+            result = identify(pts, lines, corners, frame_quad or quad, catalogue, clock)
+            clock.lap("identify")
+            if isinstance(result, Detection):
+                return result, corners
+            if first is None or first.reason == "non_triangle":
+                first = result
+    return (first if first is not None else Rejection("non_triangle", "degenerate vertex")), corners
