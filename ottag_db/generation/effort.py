@@ -34,9 +34,7 @@ class RealizeEffort:
       :func:`~ottag_db.generation.batch_ascent.soft_min_ascent` (numpy, all sets at once)
       from ``starts`` starts per set (the input, then random projective images) instead of
       SLSQP; sets whose MP stays below ``polish_below`` (grid units) then get one SLSQP run
-      (``maxiter``) from their ascent result, and the integer search is
-      :func:`~ottag_db.generation.rounding.incremental_local_search` (``hops`` and
-      ``hard_starts`` are not used);
+      (``maxiter``) from their ascent result (``hops`` and ``hard_starts`` are not used);
     - ``chunk``: sets per work unit of :func:`~ottag_db.generation.realize.realize_all`
       (0: :func:`~ottag_db.generation.realize.chunk_size`); the batched ascent gains from
       larger units.

@@ -30,7 +30,6 @@ from ottag_db.generation.parallel import BatchRunner, Workers, open_workers
 from ottag_db.generation.rounding import (
     best_roundings,
     exact_roundings,
-    incremental_local_search,
     integer_local_search,
     tilt_choice,
 )
@@ -145,7 +144,7 @@ def _realize_chunk_batched(
     points: NDArray[np.float64], texts: list[str], seed: int, eff: RealizeEffort
 ) -> list[RealizedSet]:
     """Realize sets of one k with the batched ascent (``eff.ascent``), SLSQP only for the sets
-    it leaves below ``eff.polish_below``, and the incremental integer search.
+    it leaves below ``eff.polish_below``, and the integer search.
 
     Per set, the generator of :func:`set_rng` draws the projective starts, then the rounding
     variants; every batched step works row by row, so each set's result is the one it gets
@@ -166,7 +165,7 @@ def _realize_chunk_batched(
     conts[lagging], cont_mps[lagging] = polish_slsqp(conts[lagging], signs[lagging], eff.maxiter)
     cands = [best_roundings(conts[i], signs[i], eff, rngs[i]) for i in range(b)]
     sizes = [c.shape[0] for c in cands]
-    found_int, mps = incremental_local_search(np.concatenate(cands), np.repeat(signs, sizes, axis=0), eff.search_iters)
+    found_int, mps = integer_local_search(np.concatenate(cands), np.repeat(signs, sizes, axis=0), eff.search_iters)
     return _choose(found_int, mps, sizes, texts, [float(m) for m in cont_mps], eff)
 
 

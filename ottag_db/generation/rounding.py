@@ -16,7 +16,6 @@ from ottag_db.generation.objective import GRID_MAX, signed_mp_terms, triple_sign
 __all__ = [
     "best_roundings",
     "exact_roundings",
-    "incremental_local_search",
     "integer_local_search",
     "tilt_choice",
     "tilt_failures",
@@ -66,58 +65,6 @@ def _lex_argmax(keys: NDArray[np.float64]) -> NDArray[np.intp]:
     return out
 
 
-def integer_local_search(
-    points: ArrayLike, signs: ArrayLike, max_iters: int = 200
-) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """Hill-climb integer sets ``(B, k, 2)`` in [0, 255]²: move one point by up to ±3 in x and y.
-
-    Each round evaluates every single-point move of every set at once and applies the best
-    one if it raises the smallest terms (half point-to-line distances) lexicographically;
-    moves changing an orientation (``signs`` ``(B, T)``) are never taken, so the order
-    type is kept.
-
-    Parameters
-    ----------
-    points : array_like, shape (B, k, 2)
-        Integer-valued sets in [0, GRID_MAX]² (grid units).
-    signs : array_like, shape (B, C(k, 3))
-        Orientation sign of every triple to keep (see
-        :func:`~ottag_db.generation.objective.triple_signs`).
-    max_iters : int, optional
-        Largest number of rounds.
-
-    Returns
-    -------
-    points : ndarray of int64, shape (B, k, 2)
-        The improved sets (grid units).
-    mp : ndarray of float64, shape (B,)
-        Their signed MP (grid units; ≤ 0 for an input that already broke ``signs``).
-    """
-    pts = np.asarray(points, dtype=np.float64).copy()
-    sg = np.asarray(signs, dtype=np.float64)
-    b, k, _ = pts.shape
-    n_moves = _MOVES.shape[0]
-    keys = _keys(signed_mp_terms(pts, sg))
-    active = np.ones(b, dtype=bool)
-    for _ in range(max_iters):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        cand = np.repeat(pts[idx][:, None, None], k * n_moves, axis=1).reshape(idx.size, k, n_moves, k, 2)
-        for q in range(k):
-            cand[:, q, :, q, :] += _MOVES
-        cand = np.clip(cand.reshape(idx.size, k * n_moves, k, 2), 0.0, float(GRID_MAX))
-        cand_keys = _keys(signed_mp_terms(cand, sg[idx][:, None, :]))
-        rows = np.arange(idx.size)
-        best = _lex_argmax(cand_keys)
-        best_keys = cand_keys[rows, best]
-        improved = _lex_greater(best_keys, keys[idx])
-        pts[idx[improved]] = cand[rows[improved], best[improved]]
-        keys[idx[improved]] = best_keys[improved]
-        active[idx[~improved]] = False
-    return pts.astype(np.int64), keys[:, 0]
-
-
 # Constant index tables of k, built once per k and read-only.
 @lru_cache(maxsize=16)
 def _moved_triples(k: int) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
@@ -139,25 +86,27 @@ def _moved_triples(k: int) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[
     return out[0], out[1], out[2], out[3]
 
 
-def incremental_local_search(
+def integer_local_search(
     points: ArrayLike, signs: ArrayLike, max_iters: int = 200
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """:func:`integer_local_search` evaluated incrementally: the same moves, keys and choices.
+    """Hill-climb integer sets ``(B, k, 2)`` in [0, 255]²: move one point by up to ±3 in x and y.
 
-    A single-point move of ``q`` only changes the ``C(k−1, 2)`` triples containing ``q``, so
-    only those are recomputed per move and merged with the ``_KEY_SIZE`` smallest terms of
-    the other triples (about 3 times less work for k = 9, and no ``(moves, k, 2)`` copies of
-    every set). On integer coordinates below 2**16 every orientation and squared length is
-    exact, so the terms, and hence the result, are bit-identical to
-    :func:`integer_local_search` (the realizer uses this one only for k ≥ 9, where the
-    bundled files of k ≤ 8 cannot be affected).
+    Each round evaluates every single-point move of every set at once and applies the best
+    one if it raises the smallest terms (half point-to-line distances) lexicographically;
+    moves changing an orientation (``signs`` ``(B, T)``) are never taken, so the order
+    type is kept. A move of ``q`` only changes the ``C(k−1, 2)`` triples containing ``q``, so
+    only those are recomputed per move and merged with the ``_KEY_SIZE`` smallest terms of the
+    other triples; on integer coordinates below 2**16 every orientation and squared length is
+    exact, so this gives bit for bit what recomputing every triple of every moved set gives
+    (``tests/generation/test_batch_ascent.py`` keeps that evaluation as its oracle).
 
     Parameters
     ----------
     points : array_like, shape (B, k, 2)
-        Integer-valued sets in [0, GRID_MAX]² (grid units), k ≥ 3.
+        Integer-valued sets in [0, GRID_MAX]² (grid units).
     signs : array_like, shape (B, C(k, 3))
-        Orientation sign of every triple to keep.
+        Orientation sign of every triple to keep (see
+        :func:`~ottag_db.generation.objective.triple_signs`).
     max_iters : int, optional
         Largest number of rounds.
 

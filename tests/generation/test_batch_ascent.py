@@ -14,15 +14,16 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numpy.typing import ArrayLike, NDArray
 
 from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.geometry import general_position_mask
 from ottag_db.generation.batch_ascent import AscentSchedule, soft_min_ascent
 from ottag_db.generation.continuous import _to_box
 from ottag_db.generation.effort import default_effort
-from ottag_db.generation.objective import GRID_MAX, grid_mp, triple_signs
+from ottag_db.generation.objective import GRID_MAX, grid_mp, signed_mp_terms, triple_signs
 from ottag_db.generation.realize import realize_all
-from ottag_db.generation.rounding import incremental_local_search, integer_local_search
+from ottag_db.generation.rounding import _MOVES, _keys, _lex_argmax, _lex_greater, integer_local_search
 
 SHORT = AscentSchedule(iters=120)
 
@@ -103,16 +104,45 @@ def test_a_start_with_a_wrong_orientation_is_left_alone(nines: np.ndarray) -> No
     assert np.array_equal(out[1], nines[1])
 
 
+def full_local_search(
+    points: ArrayLike, signs: ArrayLike, max_iters: int = 200
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """The integer search recomputing every triple of every moved set (the oracle)."""
+    pts = np.asarray(points, dtype=np.float64).copy()
+    sg = np.asarray(signs, dtype=np.float64)
+    b, k, _ = pts.shape
+    n_moves = _MOVES.shape[0]
+    keys = _keys(signed_mp_terms(pts, sg))
+    active = np.ones(b, dtype=bool)
+    for _ in range(max_iters):
+        idx = np.flatnonzero(active)
+        if idx.size == 0:
+            break
+        cand = np.repeat(pts[idx][:, None, None], k * n_moves, axis=1).reshape(idx.size, k, n_moves, k, 2)
+        for q in range(k):
+            cand[:, q, :, q, :] += _MOVES
+        cand = np.clip(cand.reshape(idx.size, k * n_moves, k, 2), 0.0, float(GRID_MAX))
+        cand_keys = _keys(signed_mp_terms(cand, sg[idx][:, None, :]))
+        rows = np.arange(idx.size)
+        best = _lex_argmax(cand_keys)
+        best_keys = cand_keys[rows, best]
+        improved = _lex_greater(best_keys, keys[idx])
+        pts[idx[improved]] = cand[rows[improved], best[improved]]
+        keys[idx[improved]] = best_keys[improved]
+        active[idx[~improved]] = False
+    return pts.astype(np.int64), keys[:, 0]
+
+
 @settings(deadline=None, max_examples=25)
 @given(seed=st.integers(0, 2**32 - 1), k=st.integers(3, 9))
-def test_incremental_search_is_the_integer_search(seed: int, k: int) -> None:
+def test_incremental_search_is_the_full_search(seed: int, k: int) -> None:
     rng = np.random.default_rng(seed)
     pts = rng.integers(0, 256, size=(12, k, 2)).astype(np.float64)
     pts[:3] = np.clip(pts[:3], 0, 3)  # crowded at a corner: moves get clipped by the box
     pts = pts[general_position_mask(pts)]
     signs = triple_signs(pts)
-    old, old_mp = integer_local_search(pts, signs, 15)
-    new, new_mp = incremental_local_search(pts, signs, 15)
+    old, old_mp = full_local_search(pts, signs, 15)
+    new, new_mp = integer_local_search(pts, signs, 15)
     assert new.tobytes() == old.tobytes()
     assert new_mp.tobytes() == old_mp.tobytes()
 
