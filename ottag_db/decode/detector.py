@@ -28,7 +28,7 @@ from ottag_db.decode.candidates import Binarization, around_detection, find_quad
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
 from ottag_db.decode.profile import StageClock
-from ottag_db.decode.reading import read_area
+from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
 from ottag_db.decode.types import (
     Detection,
@@ -106,7 +106,7 @@ class Detector:
         ks = frozenset(lookup.ks)
         self._catalogue = Catalogue(lookup, ks, params)
         # the 2× re-read measures lengths in upsampled pixels
-        self._upsampled = Catalogue(lookup, ks, _scaled(params, _UPSAMPLE))
+        self._upsampled = Catalogue(lookup, ks, scaled_params(params, _UPSAMPLE))
 
     @property
     def lookup(self) -> TagLookup:
@@ -192,19 +192,6 @@ class Detector:
                 elif not any(same_tag(result, d) for d in detections):
                     detections.append(result)
         return detections, rejected
-
-
-def _scaled(p: DetectorParams, f: float) -> DetectorParams:
-    """``p`` with its lengths in pixels of the image scaled by ``f`` (areas by ``f²``)."""
-    return replace(
-        p,
-        min_quad_area_px=p.min_quad_area_px * f * f,
-        min_quad_side_px=p.min_quad_side_px * f,
-        min_triangle_area_px=p.min_triangle_area_px * f * f,
-        merge_radius_px=p.merge_radius_px * f,
-        min_margin_px=p.min_margin_px * f,
-        max_reproj_px=p.max_reproj_px * f,
-    )
 
 
 def read_quad(

@@ -9,6 +9,7 @@ view's inverse homography); without one they are identified where they were meas
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Protocol
 
 import numpy as np
@@ -22,7 +23,7 @@ from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, t
 from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
 
-__all__ = ["MAX_TRIANGLES", "FrameMap", "read_area"]
+__all__ = ["MAX_TRIANGLES", "FrameMap", "read_area", "scaled_params"]
 
 _F64 = NDArray[np.float64]
 
@@ -152,3 +153,33 @@ def read_area(
             if first is None or first.reason == "non_triangle":
                 first = result
     return (first if first is not None else Rejection("non_triangle", "degenerate vertex")), corners
+
+
+def scaled_params(p: DetectorParams, f: float, *, identification: bool = True) -> DetectorParams:
+    """``p`` for an image scaled by ``f`` (image px per frame px): lengths times ``f``, areas times ``f²``.
+
+    Parameters
+    ----------
+    p : DetectorParams
+        Settings in frame pixels.
+    f : float
+        Scale of the image the stages run on.
+    identification : bool, optional
+        Also scale the margin and the reprojection bound (False when the points are mapped back
+        and identified in frame pixels, as in the rectified view).
+
+    Returns
+    -------
+    DetectorParams
+        The scaled settings.
+    """
+    scaled = replace(
+        p,
+        min_quad_area_px=p.min_quad_area_px * f * f,
+        min_quad_side_px=p.min_quad_side_px * f,
+        min_triangle_area_px=p.min_triangle_area_px * f * f,
+        merge_radius_px=p.merge_radius_px * f,
+    )
+    if not identification:
+        return scaled
+    return replace(scaled, min_margin_px=p.min_margin_px * f, max_reproj_px=p.max_reproj_px * f)

@@ -25,7 +25,6 @@ quad was found (see :func:`wants_rectified`).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -34,7 +33,7 @@ from numpy.typing import NDArray
 from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.profile import StageClock
-from ottag_db.decode.reading import read_area
+from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
 __all__ = [
@@ -173,14 +172,9 @@ def rectified_view(gray: NDArray[np.uint8], corners: _F64) -> RectifiedView | No
 
 
 def view_params(p: DetectorParams, f: float) -> DetectorParams:
-    """The settings of the rectified view: lengths scaled by ``f`` (view px per frame px)."""
-    return replace(
-        p,
-        min_quad_area_px=p.min_quad_area_px * f * f,
-        min_quad_side_px=p.min_quad_side_px * f,
-        min_triangle_area_px=p.min_triangle_area_px * f * f,
-        merge_radius_px=p.merge_radius_px * f,
-    )
+    """The settings of the rectified view: lengths scaled by ``f`` (view px per frame px); the
+    margin and the reprojection bound stay in frame pixels (points are identified there)."""
+    return scaled_params(p, f, identification=False)
 
 
 def read_rectified(
