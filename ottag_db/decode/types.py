@@ -213,8 +213,10 @@ class DetectorParams:
       views a vertex lost at a sliver tip can leave a set that fits another order type within
       the bound (8-point tags read as 6 or 7 points at 82–85°, HEAD's decoder, benchmarks/
       decode_sweeps.py); tags drawn with other triangles are then read only at milder tilts
-      (0: never checked). Readings with a lost vertex whose triangles do match are caught by
-      :mod:`~ottag_db.decode.placement_check` in verification.
+      (0: never checked); at such views the points must also lie where the stored placement
+      prints them (:mod:`~ottag_db.decode.placement_check`, in verification), which catches
+      readings with lost vertices whose triangles do match. Head-on, tags drawn by other
+      programs (other triangles, another placement) still read.
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
     ``min_margin_px``:
