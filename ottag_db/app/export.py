@@ -23,7 +23,7 @@ from ottag_db.printing.sheet import SheetOptions, SheetReport, SheetTag, sheet_l
 from ottag_db.printing.svg import render_svg
 from ottag_db.store.db import Database
 from ottag_db.store.dictionaries import dictionary_tag_records
-from ottag_db.store.queries import find_order_type
+from ottag_db.store.queries import find_order_type, missing_ks_note
 from ottag_db.store.tags import TagRecord, select_tags
 
 __all__ = [
@@ -131,6 +131,7 @@ def select_for_export(db: Database, flt: TagFilter) -> list[TagRecord]:
         tags = pick(texts, numbers)
     if not tags:
         why = f"; {FOUR_POINT_NOTE}" if _asks_for_four_points(db, flt, numbers, texts) else ""
+        why += missing_ks_note(db, flt.ks)
         raise ExportError(f"no tags match the filters ({flt.summary()}); nothing written{why}")
     return tags
 

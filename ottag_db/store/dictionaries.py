@@ -21,6 +21,7 @@ from ottag_db.errors import DictionaryError, NotFoundError, UsageError
 from ottag_db.store.db import Database
 from ottag_db.store.flipgraph import ensure_flip_graph, flip_adjacency, within_flips
 from ottag_db.store.models import Dictionary, DictionaryTag, LayoutRow, OrderType, Realization, Source
+from ottag_db.store.queries import missing_ks_note
 from ottag_db.store.tags import TagRecord, select_tags, tag_record
 
 __all__ = [
@@ -183,7 +184,9 @@ def create_dictionary(
     if not options.include_mirrors:
         candidates = [t for t in candidates if not t.chiral or t.lambda_text < t.mirror]
     if not candidates:
-        raise DictionaryError("no order type matches the filters; nothing to put in the dictionary")
+        raise DictionaryError(
+            f"no order type matches the filters; nothing to put in the dictionary{missing_ks_note(db, options.ks)}"
+        )
     ks = sorted({t.k for t in candidates})
     radius = options.min_flip_distance - 1
     if radius > 0:

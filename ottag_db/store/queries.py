@@ -415,3 +415,46 @@ def order_type_numbers(db: Database) -> dict[int, int | None]:
     """
     with db.session() as s:
         return {int(i): n for i, n in s.execute(select(OrderType.id, OrderType.number)).all()}
+
+
+def stored_ks(db: Database) -> set[int]:
+    """The point counts of which the database holds at least one order type.
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+
+    Returns
+    -------
+    set of int
+        Those k.
+    """
+    with db.session() as s:
+        return {int(k) for (k,) in s.execute(select(OrderType.k).distinct()).all()}
+
+
+def missing_ks_note(db: Database, ks: Sequence[int]) -> str:
+    """``"; the database has no order types of k = …"`` with how to add them, or "" when every k
+    of ``ks`` is stored (for "nothing matches" messages).
+
+    Parameters
+    ----------
+    db : Database
+        An open database (only read).
+    ks : sequence of int
+        The point counts asked for.
+
+    Returns
+    -------
+    str
+        The note, starting with "; " (or empty).
+    """
+    missing = sorted(set(ks) - stored_ks(db) - {4})
+    if not missing:
+        return ""
+    listed = ", ".join(map(str, missing))
+    return (
+        f"; the database has no order types of k = {listed}: import them first "
+        "(`ottag-db import FILE --with-mirrors`, or `--k K` for a bundled k)"
+    )

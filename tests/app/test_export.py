@@ -332,6 +332,9 @@ def test_four_point_tags_are_explained(db_copy: Path, tmp_path: Path) -> None:
         with pytest.raises(ExportError, match="no tags match") as info:
             export_sheet(db, tmp_path / "k8.pdf", TagFilter(ks=(8,), min_mp=50.0), SheetOptions())
         assert "4 points" not in str(info.value)  # only said when 4-point tags were asked for
+        assert "no order types of k" not in str(info.value)
+        with pytest.raises(ExportError, match=r"no order types of k = 9: import them first"):
+            export_sheet(db, tmp_path / "k9.pdf", TagFilter(ks=(9,)), SheetOptions())
         for ident in (k4[0].lambda_text, str(k4[0].id)):
             with pytest.raises(NotFoundError, match=why):
                 render_tag(db, ident, tmp_path / "k4.png")
