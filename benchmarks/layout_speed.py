@@ -7,7 +7,7 @@ Peer in the same run: the placement searched over every edge (the search before 
 pruning; the maps must be identical). Prints wall and CPU rates; on a machine shared with
 other work the CPU rate is the steadier one.
 
-    python benchmarks/layout_speed.py --file /tmp/k9/provisional-k09.b08 [--sets 6000] [--mirrors]
+    python benchmarks/layout_speed.py [--file data/ottag-k09.b08] [--sets 6000] [--mirrors]
 """
 
 from __future__ import annotations
@@ -54,7 +54,12 @@ def _run(name: str, pts: NDArray[np.float64]) -> None:
 def main(argv: list[str] | None = None) -> int:
     """Print the rates."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--file", type=Path, default=Path("/tmp/k9/provisional-k09.b08"), help="nine-point file")
+    parser.add_argument(
+        "--file",
+        type=Path,
+        default=Path(__file__).resolve().parents[1] / "data" / "ottag-k09.b08",
+        help="nine-point file",
+    )
     parser.add_argument("--sets", type=int, default=6000, help="first N sets of each file")
     parser.add_argument("--mirrors", action="store_true", help="add the mirror images, as import --with-mirrors")
     parser.add_argument("--data-dir", type=Path, default=Path(__file__).resolve().parents[1] / "data")

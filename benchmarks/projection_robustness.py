@@ -1,9 +1,10 @@
 """Replay the paper's Sec. 5.1 / 5.2 projection experiments (Tables 5 and 6) on point-set files.
 
 The bundled (and, with ``OTTAG_AICHHOLZER_DIR``, the reference) files of each ``--k``; any
-other file with ``--file [K=]PATH``, e.g. nine points beside the paper's k = 7, 8:
+other file with ``--file [K=]PATH``. Nine points beside the paper's k = 7, 8 (the bundled
+``ottag-k09.b08``; there is no reference file of nine points here):
 
-    python benchmarks/projection_robustness.py --k 7 8 --file /tmp/k9/provisional-k09.b08 --sample 2000
+    python benchmarks/projection_robustness.py --k 7 8 9 --sample 2000
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ the time of each step.
 The sheet is what ``ottag-db export`` writes by default (packed, no cut marks; 40 mm tags:
 12 per A4 page).
 
-    python benchmarks/roundtrip_k9.py --file /tmp/k9/provisional-k09.b08 [--tags 2000] [--dpi 300]
+    python benchmarks/roundtrip_k9.py [--file data/ottag-k09.b08] [--tags 2000] [--dpi 300]
 """
 
 from __future__ import annotations
@@ -51,7 +51,12 @@ def choose_tags(tags: list[TagRecord], total: int, top: int, seed: int) -> list[
 def main(argv: list[str] | None = None) -> int:
     """Run the round trip and print the figures; exit 1 when a tag is missed or misread."""
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--file", type=Path, default=Path("/tmp/k9/provisional-k09.b08"), help="nine-point file")
+    parser.add_argument(
+        "--file",
+        type=Path,
+        default=Path(__file__).resolve().parents[1] / "data" / "ottag-k09.b08",
+        help="nine-point file",
+    )
     parser.add_argument("--db", type=Path, default=None, help="use this database (k = 9 already imported)")
     parser.add_argument("--tags", type=int, default=2000, help="tags on the sheet")
     parser.add_argument("--top", type=int, default=1000, help="of which the highest-MP ones")

@@ -12,7 +12,7 @@ from ottag_db.core.canonical import canonicalize_lambdas
 from ottag_db.core.geometry import as_point_batch, orientation_tensor, triple_indices
 from ottag_db.core.types import ProgressCallback
 
-__all__ = ["FlipEdge", "FlipEdges", "flip_edges", "flip_neighbours"]
+__all__ = ["FlipEdge", "FlipEdges", "flip_edges", "flip_lambdas", "flip_neighbours"]
 
 # Sets whose orientation tensor is built at once (k = 9: 2048 × 729 float64 = 12 MB).
 _LEFT_CHUNK = 2048
@@ -56,6 +56,39 @@ def _left_tensor(pts: NDArray[np.float64]) -> NDArray[np.bool_]:
     for s in range(0, b, _LEFT_CHUNK):
         left[s : s + _LEFT_CHUNK] = orientation_tensor(pts[s : s + _LEFT_CHUNK]) < 0
     return left
+
+
+def flip_lambdas(
+    lam: NDArray[np.integer], a: ArrayLike, b: ArrayLike, c: ArrayLike, c_left_of_ab: ArrayLike
+) -> NDArray[np.int64]:
+    """λ-matrices with the orientation of one triple per matrix reversed.
+
+    ``c`` left of a→b ⇔ ``a`` left of b→c ⇔ ``b`` left of c→a (cyclic), so reversing the
+    triple moves λ(a, b), λ(b, c), λ(c, a) by one unit and their transposes by one the other
+    way (screen convention, see :mod:`ottag_db.core.geometry`).
+
+    Parameters
+    ----------
+    lam : ndarray, shape (n, k, k)
+        λ-matrices (not modified).
+    a, b, c : array_like of int, shape (n,)
+        The triple of each matrix (point indices).
+    c_left_of_ab : array_like of bool, shape (n,)
+        Whether ``c`` is left of a→b before the flip.
+
+    Returns
+    -------
+    ndarray of int64, shape (n, k, k)
+        The flipped λ-matrices (not canonicalized).
+    """
+    flipped = np.array(lam, dtype=np.int64)
+    ta, tb, tc = (np.asarray(v, dtype=np.intp) for v in (a, b, c))
+    sign = np.where(np.asarray(c_left_of_ab, dtype=bool), 1, -1)
+    rows = np.arange(flipped.shape[0])
+    for x, y in ((ta, tb), (tb, tc), (tc, ta)):
+        flipped[rows, x, y] -= sign
+        flipped[rows, y, x] += sign
+    return flipped
 
 
 def flip_edges(
@@ -119,14 +152,7 @@ def flip_edges(
         tri = np.tile(np.arange(m), part.size)
         n = src.shape[0]
         ta, tb, tc = a[tri], bb[tri], c[tri]
-        rows = np.arange(n)
-        # c left of a→b ⇒ also a left of b→c and b left of c→a (cyclic); a flip moves one unit.
-        sign = np.where(left[src, ta, tb, tc], 1, -1).astype(np.int8)
-        flipped = lam[src].copy()
-        for x, y in ((ta, tb), (tb, tc), (tc, ta)):
-            flipped[rows, x, y] -= sign
-            flipped[rows, y, x] += sign
-        canon = canonicalize_lambdas(flipped)
+        canon = canonicalize_lambdas(flip_lambdas(lam[src], ta, tb, tc, left[src, ta, tb, tc]).astype(np.int8))
         found = np.fromiter((lookup.get(t, -1) for t in canon.texts()), dtype=np.intp, count=n)
         hit = np.flatnonzero(found >= 0)
         if hit.size:

@@ -172,9 +172,9 @@ def _soft_decode(
         return replace(low, detail=f"{low.detail}; no candidate in the lookup")
     bound = found[0][1].bound
     choice = choose([Scored(isinstance(a.result, Detection), a.error) for _, a in found], bound, p.soft_min_fit_gap)
-    if isinstance(choice, str):
-        return replace(low, detail=f"{low.detail}; {choice}")
-    reading, winner = found[choice]
+    if choice.index is None:
+        return replace(low, detail=f"{low.detail}; {choice.detail}")
+    reading, winner = found[choice.index]
     if not isinstance(winner.result, Detection):  # choose() picks only a candidate that verified
         return low
     return replace(winner.result, corrected_flips=len(reading.flips))

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.canonical import lambda_orderings, lambda_text
+from ottag_db.core.flips import flip_lambdas
 from ottag_db.core.geometry import orientation_tensor
 from ottag_db.core.single_set import OrientationTable
 from ottag_db.decode.verify import SideLines
@@ -36,6 +37,7 @@ from ottag_db.decode.verify import SideLines
 __all__ = [
     "FlipReading",
     "Scored",
+    "SoftChoice",
     "ambiguous_triples",
     "choose",
     "confirms",
@@ -131,14 +133,11 @@ def flip_readings(table: OrientationTable, triples: Sequence[Triple], max_flips:
     seen: set[tuple[str, tuple[tuple[int, ...], ...]]] = set()
     for n in range(max_flips + 1):
         for subset in combinations(triples, n):
-            flipped = lam.copy()
+            flipped = lam[None]
             for a, b, c in subset:
-                # c left of a→b ⇔ a left of b→c ⇔ b left of c→a (screen convention: cross < 0)
-                sign = 1 if table.cross[index[(a, b)], c] < 0 else -1
-                for x, y in ((a, b), (b, c), (c, a)):
-                    flipped[x, y] -= sign
-                    flipped[y, x] += sign
-            reading = _reading(flipped, k, subset)
+                # screen convention: c is left of a→b when the cross product is negative
+                flipped = flip_lambdas(flipped, [a], [b], [c], [table.cross[index[(a, b)], c] < 0])
+            reading = _reading(flipped[0], k, subset)
             if reading is None:
                 continue
             key = (reading.lambda_text, reading.minimal)
@@ -197,7 +196,16 @@ def confirms(points: _F64, flips: Sequence[Triple], labeling: Sequence[int], rea
     return bool(np.array_equal(relabeled, model))
 
 
-def choose(candidates: Sequence[Scored], bound: float, gap: float) -> int | str:
+@dataclass(frozen=True)
+class SoftChoice:
+    """Outcome of :func:`choose`: ``index`` of the accepted candidate, or None with ``detail``
+    saying why none is (appended to the ``low_margin`` rejection's detail)."""
+
+    index: int | None
+    detail: str = ""
+
+
+def choose(candidates: Sequence[Scored], bound: float, gap: float) -> SoftChoice:
     """The acceptance rule of soft decoding.
 
     A candidate is accepted only when it is the *only* one that passed verification and its
@@ -216,20 +224,20 @@ def choose(candidates: Sequence[Scored], bound: float, gap: float) -> int | str:
 
     Returns
     -------
-    int or str
-        Index of the accepted candidate, or why none is (a short detail).
+    SoftChoice
+        The accepted candidate's index, or None and why none is.
     """
     passing = [i for i, c in enumerate(candidates) if c.passed]
     if not passing:
-        return f"none of {len(candidates)} candidates verifies"
+        return SoftChoice(None, f"none of {len(candidates)} candidates verifies")
     if len(passing) > 1:
-        return f"{len(passing)} of {len(candidates)} candidates verify"
+        return SoftChoice(None, f"{len(passing)} of {len(candidates)} candidates verify")
     win = passing[0]
     err = candidates[win].error
     runner = min([bound] + [c.error for i, c in enumerate(candidates) if i != win])
     if runner - err < gap * bound:
-        return f"fit {err:.2f} px, next {runner:.2f} px: lead below {gap * bound:.2f} px"
-    return win
+        return SoftChoice(None, f"fit {err:.2f} px, next {runner:.2f} px: lead below {gap * bound:.2f} px")
+    return SoftChoice(win)
 
 
 def observed_triangles(lines: SideLines) -> frozenset[frozenset[int]] | None:

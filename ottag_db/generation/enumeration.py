@@ -18,9 +18,11 @@ from ottag_db.generation.objective import relative_mp
 
 __all__ = [
     "ENUMERATION_MAX_K",
+    "FROM_SCRATCH_MAX_K",
     "EnumeratedSet",
     "EnumerationPass",
     "enumerate_order_types",
+    "extend_order_types",
     "mirror_points",
     "normalize_unit",
 ]
@@ -37,8 +39,11 @@ _MIN_QUALITY = 1e-9
 _ENUM_CHUNK = 1500
 #: Candidate sets canonicalized per batch (bounds the memory to a few hundred MB).
 _CHUNK_SETS = 200_000
-#: Largest number of points the enumeration handles.
+#: Largest number of points the enumeration handles (:func:`extend_order_types`).
 ENUMERATION_MAX_K = 9
+#: Largest number of points :func:`enumerate_order_types` reaches with its own float
+#: realizations: at k = 9 they miss one chiral pair of the 158,817 (see :func:`extend_order_types`).
+FROM_SCRATCH_MAX_K = 8
 #: From this k on (by default), the passes after the first insert into a sample of the new sets' subsets:
 #: all of them would be 9 subsets of each of ~316,000 nine-point sets (1.4 million bases, hours),
 #: while a few per (k − 1)-point type already reach every order type (k = 9: passes of 25,619,
@@ -308,6 +313,110 @@ def _sweep_bases(found: dict[str, tuple[NDArray[np.float64], float]], rng: np.ra
     return _sample_subsets(pts[keep].reshape(b, k - 1, 2), rng)
 
 
+def extend_order_types(
+    k: int,
+    bases: NDArray[np.float64],
+    progress: StageProgress | None = None,
+    jobs: int = 1,
+    on_pass: Callable[[EnumerationPass], None] | None = None,
+    *,
+    sampled: bool | None = None,
+) -> list[EnumeratedSet]:
+    """Every order type of ``k`` points (both chiralities), from realizations of all (k − 1)-point types.
+
+    The first pass inserts a point into every cell of the line arrangement of each base set
+    (jittered, see :func:`_jitter`); since the cells depend on the coordinates, later passes
+    insert into ``(k − 1)``-subsets of the new ``k``-point realizations — all of them, or when
+    ``sampled`` a few per ``(k − 1)``-point order type, closed by sweeps over subsets of all
+    known sets — until a pass (a sweep, when sampling) finds nothing new. Mirror images are
+    added by reflection. Deterministic for given ``bases`` (also across ``jobs``): the random
+    generator is seeded by ``k``.
+
+    Which realizations start it matters at k = 9: from the enumeration's own float
+    realizations of the 8-point types the sampled passes reach 158,816 of the 158,817 types
+    (up to reflection); from their MP-maximized grid realizations (the bundled
+    ``ottag-k08.b08``, as ``generate`` does) all 158,817.
+
+    Parameters
+    ----------
+    k : int
+        Number of points of the result, 4 … 9.
+    bases : ndarray, shape (B, k − 1, 2)
+        One realization of every (k − 1)-point order type up to reflection, any scale
+        (screen convention).
+    progress : StageProgress, optional
+        ``progress(stage, done, total)`` in chunks of base sets.
+    jobs : int, optional
+        Number of processes (≥ 1).
+    on_pass : callable, optional
+        Called with an :class:`EnumerationPass` after every pass (the realizations it took).
+    sampled : bool, optional
+        Sample the subsets in the later passes; default: from k = 9 on.
+
+    Returns
+    -------
+    list of EnumeratedSet
+        Sorted by ID; the points are in [0, 1]² and, of all candidates seen, the one with the
+        largest relative MP is kept.
+
+    Raises
+    ------
+    UsageError
+        For ``k`` outside 4 … 9, ``bases`` not of shape (B, k − 1, 2) or ``jobs < 1``.
+    """
+    if not 4 <= k <= ENUMERATION_MAX_K:
+        raise UsageError(f"k must be between 4 and {ENUMERATION_MAX_K}, got {k}")
+    if bases.ndim != 3 or bases.shape[1:] != (k - 1, 2) or bases.shape[0] == 0:
+        raise UsageError(f"bases must have shape (B, {k - 1}, 2), got {bases.shape}")
+    if jobs < 1:
+        raise UsageError(f"jobs must be at least 1, got {jobs}")
+    sample = k >= _SAMPLED_FROM_K if sampled is None else sampled
+    rng = np.random.default_rng(k)
+    base = _jitter(np.asarray(bases, dtype=np.float64), rng)
+    found: dict[str, tuple[NDArray[np.float64], float]] = {}
+    passes = 0
+    # Sampled passes end with a sweep over all known sets; another one follows any pass that
+    # found something new, so the run stops after a sweep that found nothing.
+    swept = False
+    while base.shape[0]:
+        passes += 1
+        new = _insert_all(base, jobs, f"enumerate k={k} pass {passes}", progress)
+        fresh = sorted(t for t in new if t not in found)
+        for text, (pts, q) in new.items():
+            old = found.get(text)
+            if old is None or q > old[1]:
+                found[text] = (pts, q)
+        if not fresh:
+            if on_pass is not None:
+                on_pass(EnumerationPass(k, passes, int(base.shape[0]), 0, len(found)))
+            if not sample or swept:
+                break
+            swept = True
+            base = _sweep_bases(found, rng)
+            continue
+        swept = False
+        # Close under reflection. Extending a reflected set gives only the reflections of
+        # the extensions of the original, so one chirality per pair is extended further.
+        fresh_pts = np.stack([found[t][0] for t in fresh])
+        fresh_set = set(fresh)
+        frontier: list[NDArray[np.float64]] = []
+        mirrored = mirror_points(fresh_pts)
+        for text, mtext, pts, mpts, mq in zip(
+            fresh, _mirror_texts(fresh_pts), fresh_pts, mirrored, relative_mp(mirrored), strict=True
+        ):
+            if text <= mtext or mtext not in fresh_set:
+                frontier.append(pts)
+            if mtext not in found:
+                found[mtext] = (mpts, float(mq))
+        if on_pass is not None:
+            on_pass(EnumerationPass(k, passes, int(base.shape[0]), len(fresh), len(found)))
+        base = _next_bases(fresh_pts, frontier, sample, rng)
+    texts = sorted(found)
+    pts_all = np.stack([found[t][0] for t in texts])
+    mirrors = _mirror_texts(pts_all)
+    return [EnumeratedSet(t, mt, p) for t, mt, p in zip(texts, mirrors, pts_all, strict=True)]
+
+
 def enumerate_order_types(
     max_k: int = 8,
     progress: StageProgress | None = None,
@@ -318,21 +427,16 @@ def enumerate_order_types(
 ) -> dict[int, list[EnumeratedSet]]:
     """All order types of ``k = 3 … max_k`` points in general position, both chiralities.
 
-    Starts from a triangle; the types of ``k`` points come from inserting a point into
-    every cell of the line arrangement of a realization of each type of ``k − 1`` points,
-    then (since the cells depend on the coordinates) into ``(k − 1)``-subsets of the new
-    ``k``-point realizations — all of them below ``sampled_from_k``, from there on a few per
-    ``(k − 1)``-point order type, closed by sweeps over subsets of all known sets — until a
-    pass (a sweep, when sampling) finds nothing new. Mirror images are added by
-    reflection. Deterministic (also across ``jobs``, the number of processes). Returns
-    ``{k: [EnumeratedSet, …]}`` sorted by ID text; the points are in [0, 1]² and, of all
-    candidates seen, the one with the largest relative MP is kept.
-    ``progress(stage, done, total)`` is called per chunk of work, ``on_pass`` after each pass.
+    Starts from a triangle; the types of ``k`` points come from :func:`extend_order_types`
+    on the enumeration's own float realization of each (k − 1)-point type up to reflection.
+    Deterministic (also across ``jobs``, the number of processes). For nine points, call
+    :func:`extend_order_types` with grid realizations of the 8-point types (as ``generate``
+    does): from these float ones it misses one chiral pair.
 
     Parameters
     ----------
     max_k : int, optional
-        Largest number of points, 3 … 9.
+        Largest number of points, 3 … 8.
     progress : StageProgress, optional
         ``progress(stage, done, total)`` in chunks of base sets.
     jobs : int, optional
@@ -346,64 +450,27 @@ def enumerate_order_types(
     Returns
     -------
     dict of int to list of EnumeratedSet
-        Every order type of ``k = 3 … max_k`` points (both chiralities), sorted by ID.
+        Every order type of ``k = 3 … max_k`` points (both chiralities), sorted by ID; the
+        points are in [0, 1]².
 
     Raises
     ------
     UsageError
-        For ``max_k`` outside 3 … 9 or ``jobs < 1``.
+        For ``max_k`` outside 3 … 8 or ``jobs < 1``.
     """
-    if not 3 <= max_k <= ENUMERATION_MAX_K:
-        raise UsageError(f"max_k must be between 3 and {ENUMERATION_MAX_K}, got {max_k}")
+    if not 3 <= max_k <= FROM_SCRATCH_MAX_K:
+        raise UsageError(
+            f"max_k must be between 3 and {FROM_SCRATCH_MAX_K}, got {max_k}"
+            " (nine points: extend_order_types from realizations of the 8-point types)"
+        )
     if jobs < 1:
         raise UsageError(f"jobs must be at least 1, got {jobs}")
     tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.5, 1.0]]])
     tri_text = canonical_batch(tri).texts()[0]
     result: dict[int, list[EnumeratedSet]] = {3: [EnumeratedSet(tri_text, _mirror_texts(tri)[0], tri[0])]}
     for k in range(4, max_k + 1):
-        rng = np.random.default_rng(k)
         reps = [r for r in result[k - 1] if r.representative]
-        base = _jitter(np.stack([r.points for r in reps]), rng)
-        found: dict[str, tuple[NDArray[np.float64], float]] = {}
-        passes = 0
-        # Sampled passes end with a sweep over all known sets; another one follows any pass that
-        # found something new, so the run stops after a sweep that found nothing.
-        swept = False
-        while base.shape[0]:
-            passes += 1
-            new = _insert_all(base, jobs, f"enumerate k={k} pass {passes}", progress)
-            fresh = sorted(t for t in new if t not in found)
-            for text, (pts, q) in new.items():
-                old = found.get(text)
-                if old is None or q > old[1]:
-                    found[text] = (pts, q)
-            if not fresh:
-                if on_pass is not None:
-                    on_pass(EnumerationPass(k, passes, int(base.shape[0]), 0, len(found)))
-                if k < sampled_from_k or swept:
-                    break
-                swept = True
-                base = _sweep_bases(found, rng)
-                continue
-            swept = False
-            # Close under reflection. Extending a reflected set gives only the reflections of
-            # the extensions of the original, so one chirality per pair is extended further.
-            fresh_pts = np.stack([found[t][0] for t in fresh])
-            fresh_set = set(fresh)
-            frontier: list[NDArray[np.float64]] = []
-            mirrored = mirror_points(fresh_pts)
-            for text, mtext, pts, mpts, mq in zip(
-                fresh, _mirror_texts(fresh_pts), fresh_pts, mirrored, relative_mp(mirrored), strict=True
-            ):
-                if text <= mtext or mtext not in fresh_set:
-                    frontier.append(pts)
-                if mtext not in found:
-                    found[mtext] = (mpts, float(mq))
-            if on_pass is not None:
-                on_pass(EnumerationPass(k, passes, int(base.shape[0]), len(fresh), len(found)))
-            base = _next_bases(fresh_pts, frontier, k >= sampled_from_k, rng)
-        texts = sorted(found)
-        pts_all = np.stack([found[t][0] for t in texts])
-        mirrors = _mirror_texts(pts_all)
-        result[k] = [EnumeratedSet(t, mt, p) for t, mt, p in zip(texts, mirrors, pts_all, strict=True)]
+        result[k] = extend_order_types(
+            k, np.stack([r.points for r in reps]), progress, jobs, on_pass, sampled=k >= sampled_from_k
+        )
     return result

@@ -11,6 +11,7 @@ from ottag_db.core.flips import flip_neighbours
 from ottag_db.core.single_set import orientation_table
 from ottag_db.decode.soft import (
     Scored,
+    SoftChoice,
     ambiguous_triples,
     choose,
     confirms,
@@ -77,17 +78,17 @@ def test_two_flips_and_no_flips() -> None:
 
 def test_acceptance_rule() -> None:
     bound, gap = 1.5, 0.2  # the lead must be 0.3 px
-    assert choose([Scored(True, 0.3), Scored(False, 1.9)], bound, gap) == 0
-    assert choose([Scored(False, 2.0), Scored(True, 0.4), Scored(False, math.inf)], bound, gap) == 1
+    assert choose([Scored(True, 0.3), Scored(False, 1.9)], bound, gap).index == 0
+    assert choose([Scored(False, 2.0), Scored(True, 0.4), Scored(False, math.inf)], bound, gap).index == 1
     # a lone candidate must pass with the lead to spare below the bound
-    assert choose([Scored(True, 1.1)], bound, gap) == 0
-    assert isinstance(choose([Scored(True, 1.3)], bound, gap), str)
+    assert choose([Scored(True, 1.1)], bound, gap).index == 0
+    assert choose([Scored(True, 1.3)], bound, gap).index is None
     # two that verify: refused, whatever their fits
-    assert isinstance(choose([Scored(True, 0.2), Scored(True, 1.4)], bound, gap), str)
+    assert choose([Scored(True, 0.2), Scored(True, 1.4)], bound, gap) == SoftChoice(None, "2 of 2 candidates verify")
     # one verifies, the next fails just outside the bound: too close to call
-    assert isinstance(choose([Scored(True, 1.3), Scored(False, 1.55)], bound, gap), str)
-    assert isinstance(choose([Scored(False, 2.0)], bound, gap), str)
-    assert isinstance(choose([], bound, gap), str)
+    assert choose([Scored(True, 1.3), Scored(False, 1.55)], bound, gap).index is None
+    assert choose([Scored(False, 2.0)], bound, gap).index is None
+    assert choose([], bound, gap).index is None
 
 
 def _line(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:

@@ -15,10 +15,16 @@ from ottag_db.core.geometry import lambda_matrices, maximal_perturbations
 from ottag_db.core.types import COMPLETE_COUNTS, MP_THRESHOLDS
 from ottag_db.errors import UsageError
 from ottag_db.files.bundled import bundled_manifest
-from ottag_db.files.pointfile import OFFICIAL_RECORD_COUNTS, file_sha256
+from ottag_db.files.pointfile import OFFICIAL_RECORD_COUNTS, file_sha256, read_point_file
 from ottag_db.files.resources import data_dir
 from ottag_db.generation.arrangement import insertion_candidates
-from ottag_db.generation.enumeration import EnumeratedSet, EnumerationPass, enumerate_order_types, mirror_points
+from ottag_db.generation.enumeration import (
+    EnumeratedSet,
+    EnumerationPass,
+    enumerate_order_types,
+    extend_order_types,
+    mirror_points,
+)
 from ottag_db.generation.objective import relative_mp
 
 
@@ -88,9 +94,32 @@ def test_sampled_passes_reach_every_order_type(enumerated: dict[int, list[Enumer
         assert sum(p.new for p in mine) <= COMPLETE_COUNTS[k]
 
 
-def test_max_k_above_nine_is_refused() -> None:
-    with pytest.raises(UsageError, match="between 3 and 9"):
-        enumerate_order_types(10)
+def test_max_k_above_eight_is_refused_from_scratch() -> None:
+    # Nine points need realizations of the 8-point types (extend_order_types), see below.
+    with pytest.raises(UsageError, match=r"between 3 and 8.*extend_order_types"):
+        enumerate_order_types(9)
+
+
+def test_extend_from_grid_realizations(enumerated: dict[int, list[EnumeratedSet]]) -> None:
+    # generate's path for nine points, at k = 7: start from the bundled 6-point grid records
+    # instead of the enumeration's own float realizations; the same complete set comes out.
+    grid = read_point_file(data_dir() / file_name(6), 6).astype(np.float64)
+    passes: list[EnumerationPass] = []
+    got = extend_order_types(7, grid, on_pass=passes.append)
+    assert [r.text for r in got] == [r.text for r in enumerated[7]]
+    assert len(got) == COMPLETE_COUNTS[7]
+    assert passes[0].bases == grid.shape[0] and passes[-1].new == 0
+    pts = np.stack([r.points for r in got])
+    assert canonical_batch(pts).texts() == [r.text for r in got]
+
+
+def test_extend_refuses_bad_bases() -> None:
+    with pytest.raises(UsageError, match="between 4 and 9"):
+        extend_order_types(10, np.zeros((1, 9, 2)))
+    with pytest.raises(UsageError, match=r"shape \(B, 6, 2\)"):
+        extend_order_types(7, np.zeros((3, 5, 2)))
+    with pytest.raises(UsageError, match="jobs"):
+        extend_order_types(5, np.array([[[0.0, 0.0], [1.0, 0.0], [0.5, 1.0], [0.5, 0.3]]]), jobs=0)
 
 
 def test_candidates_hit_every_cell_of_a_square() -> None:
