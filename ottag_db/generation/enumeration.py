@@ -1,4 +1,5 @@
-"""Enumerate all order types of 3 … 9 points from scratch, each with a float realization in [0, 1]²."""
+"""Enumerate every order type of 3 … 8 points from scratch and of 9 points from realizations of
+the 8-point types, each with a float realization in [0, 1]²."""
 
 from __future__ import annotations
 
@@ -39,6 +40,9 @@ _MIN_QUALITY = 1e-9
 _ENUM_CHUNK = 1500
 #: Candidate sets canonicalized per batch (bounds the memory to a few hundred MB).
 _CHUNK_SETS = 200_000
+#: Sets whose ID texts are computed at once (k = 9: 50,000 orientation tensors, 300 MB; the
+#: enumeration handles ten times more sets at a time).
+_TEXT_CHUNK = 50_000
 #: Largest number of points the enumeration handles (:func:`extend_order_types`).
 ENUMERATION_MAX_K = 9
 #: Largest number of points :func:`enumerate_order_types` reaches with its own float
@@ -206,13 +210,25 @@ def _insert_points(base: NDArray[np.float64]) -> dict[str, tuple[NDArray[np.floa
     idx, _ = _best_per_key(np.concatenate(all_keys), quality)
     sets = normalize_unit(sets[idx])
     quality = quality[idx]
-    texts = canonical_batch(sets).texts()
+    texts = _texts(sets)
     return {t: (p, float(q)) for t, p, q in zip(texts, sets, quality, strict=True)}
 
 
+def _texts(points: NDArray[np.float64]) -> list[str]:
+    """Canonical ID texts of ``(N, k, 2)`` sets, in chunks of ``_TEXT_CHUNK``."""
+    out: list[str] = []
+    for start in range(0, points.shape[0], _TEXT_CHUNK):
+        out += canonical_batch(points[start : start + _TEXT_CHUNK]).texts()
+    return out
+
+
 def _mirror_texts(points: NDArray[np.float64]) -> list[str]:
-    lam = canonical_batch(points).lambdas
-    return canonicalize_lambdas(mirror_lambdas(lam)).texts()
+    """Canonical ID texts of the mirror images of ``(N, k, 2)`` sets, in chunks of ``_TEXT_CHUNK``."""
+    out: list[str] = []
+    for start in range(0, points.shape[0], _TEXT_CHUNK):
+        lam = canonical_batch(points[start : start + _TEXT_CHUNK]).lambdas
+        out += canonicalize_lambdas(mirror_lambdas(lam)).texts()
+    return out
 
 
 def _jitter(points: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
@@ -279,7 +295,9 @@ def _insert_all(
 def _sample_subsets(subs: NDArray[np.float64], rng: np.random.Generator) -> NDArray[np.float64]:
     """Up to ``_SUBSETS_PER_TYPE`` of the ``(N, k − 1, 2)`` sets per order type (seeded choice), jittered."""
     groups: dict[str, list[int]] = {}
-    for i, text in enumerate(canonical_batch(subs).texts()):
+    # In chunks (_texts): canonicalizing all subsets at once (k = 9: 2.4 million sets of
+    # 8 points) would hold their orientation tensors, about 10 GB.
+    for i, text in enumerate(_texts(subs)):
         groups.setdefault(text, []).append(i)
     pick: list[int] = []
     for text in sorted(groups):
