@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -13,6 +14,8 @@ from ottag_db.core.geometry import as_point_batch, orientation_tensor, triple_in
 from ottag_db.core.types import ProgressCallback
 
 __all__ = ["FlipEdge", "FlipEdges", "flip_edges", "flip_lambdas", "flip_neighbours"]
+
+_Int = TypeVar("_Int", bound=np.integer[Any])
 
 # Sets whose orientation tensor is built at once (k = 9: 2048 × 729 float64 = 12 MB).
 _LEFT_CHUNK = 2048
@@ -59,8 +62,8 @@ def _left_tensor(pts: NDArray[np.float64]) -> NDArray[np.bool_]:
 
 
 def flip_lambdas(
-    lam: NDArray[np.integer], a: ArrayLike, b: ArrayLike, c: ArrayLike, c_left_of_ab: ArrayLike
-) -> NDArray[np.int64]:
+    lam: NDArray[_Int], a: ArrayLike, b: ArrayLike, c: ArrayLike, c_left_of_ab: ArrayLike
+) -> NDArray[_Int]:
     """λ-matrices with the orientation of one triple per matrix reversed.
 
     ``c`` left of a→b ⇔ ``a`` left of b→c ⇔ ``b`` left of c→a (cyclic), so reversing the
@@ -78,12 +81,12 @@ def flip_lambdas(
 
     Returns
     -------
-    ndarray of int64, shape (n, k, k)
-        The flipped λ-matrices (not canonicalized).
+    ndarray, shape (n, k, k)
+        The flipped λ-matrices (not canonicalized), of the dtype of ``lam``.
     """
-    flipped = np.array(lam, dtype=np.int64)
+    flipped = lam.copy()
     ta, tb, tc = (np.asarray(v, dtype=np.intp) for v in (a, b, c))
-    sign = np.where(np.asarray(c_left_of_ab, dtype=bool), 1, -1)
+    sign = np.where(np.asarray(c_left_of_ab, dtype=bool), 1, -1).astype(lam.dtype)
     rows = np.arange(flipped.shape[0])
     for x, y in ((ta, tb), (tb, tc), (tc, ta)):
         flipped[rows, x, y] -= sign
@@ -152,7 +155,7 @@ def flip_edges(
         tri = np.tile(np.arange(m), part.size)
         n = src.shape[0]
         ta, tb, tc = a[tri], bb[tri], c[tri]
-        canon = canonicalize_lambdas(flip_lambdas(lam[src], ta, tb, tc, left[src, ta, tb, tc]).astype(np.int8))
+        canon = canonicalize_lambdas(flip_lambdas(lam[src], ta, tb, tc, left[src, ta, tb, tc]))
         found = np.fromiter((lookup.get(t, -1) for t in canon.texts()), dtype=np.intp, count=n)
         hit = np.flatnonzero(found >= 0)
         if hit.size:
