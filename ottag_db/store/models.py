@@ -36,6 +36,7 @@ __all__ = [
     "coordinates_from_blob",
     "coordinates_to_blobs",
     "labelings_to_texts",
+    "triangles_from_text",
 ]
 
 #: Every constraint and index gets a predictable name (needed by batch migrations on SQLite).
@@ -162,11 +163,7 @@ class LayoutRow(Base):
 
     def triangle_list(self) -> list[tuple[int, int, int]]:
         """Triangles as index triples into the realization's file-order points."""
-        out = []
-        for t in self.triangles.split(";"):
-            a, b, c = (int(v) for v in t.split(","))
-            out.append((a, b, c))
-        return out
+        return list(triangles_from_text(self.triangles))
 
 
 class FlipEdgeRow(Base):
@@ -267,6 +264,26 @@ def coordinates_from_blob(blob: bytes) -> NDArray[np.int64]:
         ``(k, 2)`` int64 coordinates in file order.
     """
     return np.frombuffer(blob, dtype="<u2").reshape(-1, 2).astype(np.int64)
+
+
+def triangles_from_text(text: str) -> tuple[tuple[int, int, int], ...]:
+    """Triangles of one value of the ``layouts.triangles`` column.
+
+    Parameters
+    ----------
+    text : str
+        ``"a,b,c;d,e,f"``: file indices of each triangle's vertices.
+
+    Returns
+    -------
+    tuple of (int, int, int)
+        One index triple per triangle, in stored order.
+    """
+    out = []
+    for t in text.split(";"):
+        a, b, c = (int(v) for v in t.split(","))
+        out.append((a, b, c))
+    return tuple(out)
 
 
 def labelings_to_texts(labelings: NDArray[np.integer]) -> list[str]:
