@@ -43,6 +43,13 @@ __all__ = ["db_group", "id_cmd", "import_cmd", "list_cmd", "show_cmd", "sources_
     multiple=True,
     help="Import the bundled file of these point counts (repeatable; 9 is not in the default import).",
 )
+@click.option(
+    "--jobs",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="Processes that compute the tag layouts (e.g. 2 on two cores for --k 9); same result.",
+)
 @db_options
 @quiet_option
 def import_cmd(
@@ -51,13 +58,14 @@ def import_cmd(
     with_mirrors: bool | None,
     allow_duplicates: bool,
     ks: tuple[int, ...],
+    jobs: int,
     db_target: str | None,
     quiet: bool,
 ) -> None:
     """Import point-set files (.b08/.b16) into the database; no FILE imports the bundled data.
 
     Without FILE: the bundled order types of 3 … 8 points; `--k 9` adds the 158,817
-    nine-point ones (about a minute), `--k K` picks any bundled k. Each file is one
+    nine-point ones (a few minutes on one core; use --jobs on several), `--k K` picks any bundled k. Each file is one
     transaction: a failure leaves the database as it was. Importing a file again is a no-op.
     Ctrl-C (or SIGTERM) rolls back the file being imported and says so.
     """
@@ -82,6 +90,7 @@ def import_cmd(
                             with_mirrors=plan.with_mirrors,
                             progress=bar,
                             allow_duplicates=allow_duplicates,
+                            jobs=jobs,
                         )
                     finally:
                         bar.close()

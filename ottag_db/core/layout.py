@@ -25,6 +25,7 @@ from ottag_db.core.layout_figures import (
     index_tables,
     layout_score,
 )
+from ottag_db.core.placement import tag_placements
 from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import ExportError
 
@@ -35,6 +36,7 @@ __all__ = [
     "Layout",
     "compute_layout",
     "compute_layouts",
+    "lay_out_and_place",
     "layout_quality",
     "layout_supported",
     "validate_layout",
@@ -287,3 +289,24 @@ def layout_quality(points: ArrayLike, triangles: Sequence[Sequence[int]]) -> Lay
         _, g, a = geo.pair_figures(pairs, shared)
         gap, shared_gap = float(g.min()), float(a.min())
     return _make_layout(tb.tris[ids], angle, side, gap, shared_gap, float(geo.diameter[0]))
+
+
+def lay_out_and_place(points_batch: NDArray[np.float64]) -> tuple[list[Layout], NDArray[np.float64]]:
+    """Layouts and tag placements of a batch: what ``import`` stores for each realization.
+
+    One top-level function of plain arrays, so a process pool can run batches in parallel
+    (each result depends on its set only, not on the batch).
+
+    Parameters
+    ----------
+    points_batch : ndarray of float64, shape (B, k, 2)
+        Point sets in general position, file coordinates (grid units; screen convention).
+
+    Returns
+    -------
+    layouts : list of Layout
+        :func:`compute_layouts` of the batch.
+    maps : ndarray of float64, shape (B, 2, 3)
+        :func:`~ottag_db.core.placement.tag_placements` of the batch.
+    """
+    return compute_layouts(points_batch), tag_placements(points_batch)

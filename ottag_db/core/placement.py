@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from ottag_db.core.geometry import as_point_batch
 from ottag_db.errors import ExportError, UsageError
 
-__all__ = ["DEFAULT_INNER_MARGIN", "apply_placements", "tag_placement", "tag_placements"]
+__all__ = ["DEFAULT_INNER_MARGIN", "apply_placements", "mirrored_placements", "tag_placement", "tag_placements"]
 
 #: Default smallest distance between a point and the data-area border, in data-area units.
 DEFAULT_INNER_MARGIN = 0.10
@@ -258,3 +258,35 @@ def apply_placements(maps: ArrayLike, points_batch: ArrayLike) -> NDArray[np.flo
     pts = np.asarray(points_batch, dtype=np.float64)
     placed: NDArray[np.float64] = np.einsum("bxy,bky->bkx", m[:, :, :2], pts) + m[:, None, :, 2]
     return placed
+
+
+def mirrored_placements(maps: ArrayLike, axis_sums: ArrayLike) -> NDArray[np.float64]:
+    """Placements of mirror images: each the original's placed tag reflected in the data area.
+
+    A set ``p`` and its mirror image ``q`` (``q_x = c − p_x``, ``q_y = p_y``) have the same
+    placement problem reflected, so the original's map ``M``, followed by ``x ↦ 1 − x`` in the
+    data area, places ``q``: the mirror's printed tag is the mirror image of the original's,
+    with the same printed MP. The map stays of the form ``s · [[1, u], [w, r]]`` plus a
+    translation (``u`` and ``w`` change sign, the determinant is kept).
+
+    Parameters
+    ----------
+    maps : array_like, shape (B, 2, 3)
+        Placements of the original sets, as :func:`tag_placements` returns them.
+    axis_sums : array_like, shape (B,)
+        ``c = p_x + q_x`` of each pair (file coordinates; the largest coordinate of the file
+        for a mirror made as ``x → max − x``).
+
+    Returns
+    -------
+    ndarray of float64, shape (B, 2, 3)
+        Maps of the mirror images, file coordinates → data-area units.
+    """
+    m = np.asarray(maps, dtype=np.float64)
+    c = np.asarray(axis_sums, dtype=np.float64)
+    out = m.copy()
+    out[:, 0, 1] = -m[:, 0, 1]
+    out[:, 1, 0] = -m[:, 1, 0]
+    out[:, 0, 2] = 1.0 - m[:, 0, 2] - m[:, 0, 0] * c
+    out[:, 1, 2] = m[:, 1, 2] + m[:, 1, 0] * c
+    return out

@@ -7,8 +7,10 @@ Each chunk's realizations are stored with their layouts and placements
 from __future__ import annotations
 
 import os
+import signal
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -26,7 +28,7 @@ from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import GeneralPositionError, PointFileError
 from ottag_db.files.pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
 from ottag_db.store.db import Database
-from ottag_db.store.layouts import LAYOUT_BATCH, missing_layouts, store_layouts
+from ottag_db.store.layouts import BatchMap, missing_layouts, store_layouts
 from ottag_db.store.models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
 from ottag_db.store.numbering import assign_numbers
 
@@ -199,6 +201,7 @@ def import_point_file(
     progress: ProgressCallback | None = None,
     display_name: str | None = None,
     allow_duplicates: bool = False,
+    jobs: int = 1,
 ) -> ImportReport:
     """Import one ``.b08``/``.b16`` file in a single transaction.
 
@@ -229,6 +232,9 @@ def import_point_file(
     allow_duplicates : bool
         Accept two records of the same order type (refused by default: Aichholzer's files
         hold each order type once, so a repeat usually means a wrong ``--points``).
+    jobs : int
+        Processes that compute layouts and placements (above 1, a pool of spawned worker
+        processes beside this one, which does the SQL); the stored rows are the same.
 
     Returns
     -------
@@ -278,7 +284,10 @@ def import_point_file(
             conn.execute(update(Source).where(Source.id == source_id).values(mirrors_included=True))
         added = 0
         try:
-            added = _import_chunks(conn, info, int(source_id), with_mirrors, only_mirrors, max_coordinate, progress)
+            with _layout_workers(jobs if layout_supported(info.n) else 1) as map_batches:
+                added = _import_chunks(
+                    conn, info, int(source_id), with_mirrors, only_mirrors, max_coordinate, progress, map_batches
+                )
         except GeneralPositionError as exc:
             record = exc.record if exc.record is not None else 0
             raise PointFileError(
@@ -339,6 +348,7 @@ def _import_chunks(
     only_mirrors: bool,
     max_coordinate: int,
     progress: ProgressCallback | None,
+    map_batches: BatchMap,
 ) -> int:
     added = 0
     drawable = layout_supported(info.n)
@@ -358,23 +368,53 @@ def _import_chunks(
                 )
         stop = first + points.shape[0]
         if drawable:
-            _store_chunk_layouts(conn, source_id, first, stop, info.records, progress)
+            _store_chunk_layouts(conn, source_id, first, stop, info.records, progress, map_batches)
         if progress is not None:
             progress(stop, info.records)
     return added
 
 
 def _store_chunk_layouts(
-    conn: Connection, source_id: int, first: int, stop: int, records: int, progress: ProgressCallback | None
+    conn: Connection,
+    source_id: int,
+    first: int,
+    stop: int,
+    records: int,
+    progress: ProgressCallback | None,
+    map_batches: BatchMap,
 ) -> None:
-    """Lay out the chunk's new realizations in batches; progress counts the records finished."""
+    """Lay out the chunk's new realizations; progress counts the records finished."""
     todo = missing_layouts(conn, source_id=source_id, first=first, stop=stop)
-    for start in range(0, len(todo), LAYOUT_BATCH):
-        part = todo[start : start + LAYOUT_BATCH]
-        store_layouts(conn, [(rid, blob) for rid, _k, _record, blob in part])
-        if progress is not None:
-            # The last record of the batch may still have its mirror in the next one.
-            progress(part[-1][2], records)
+
+    def report(done: int) -> None:
+        # The last record of a batch may still have its mirror in the next one.
+        if progress is not None and done:
+            progress(todo[done - 1].record_index, records)
+
+    store_layouts(conn, todo, map_batches=map_batches, on_batch=report)
+
+
+@contextmanager
+def _layout_workers(jobs: int) -> Iterator[BatchMap]:
+    """``map`` over layout batches: in this process (``jobs = 1``) or a pool of ``jobs`` processes."""
+    if jobs <= 1:
+        yield map
+        return
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    # Spawned workers import numpy and ottag_db.core only; they ignore Ctrl-C, which the
+    # import handles (rolls the file back) in this process.
+    with ProcessPoolExecutor(jobs, mp_context=get_context("spawn"), initializer=_ignore_interrupts) as pool:
+        try:
+            yield pool.map
+        except BaseException:
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+
+
+def _ignore_interrupts() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def import_point_files(
@@ -384,6 +424,7 @@ def import_point_files(
     n: int | None = None,
     with_mirrors: bool = False,
     progress: ProgressCallback | None = None,
+    jobs: int = 1,
 ) -> list[ImportReport]:
     """Import several files, each in its own transaction; stops at the first failing file.
 
@@ -399,10 +440,12 @@ def import_point_files(
         Also store mirror images (see :func:`import_point_file`).
     progress : ProgressCallback, optional
         Called per file as in :func:`import_point_file`.
+    jobs : int
+        Layout processes per file (see :func:`import_point_file`).
 
     Returns
     -------
     list of ImportReport
         One report per file.
     """
-    return [import_point_file(db, p, n=n, with_mirrors=with_mirrors, progress=progress) for p in paths]
+    return [import_point_file(db, p, n=n, with_mirrors=with_mirrors, progress=progress, jobs=jobs) for p in paths]

@@ -8,27 +8,62 @@ databases made before that; everything that draws tags only reads them (see
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
 
 import numpy as np
-from sqlalchemy import Connection, insert, select
+from numpy.typing import NDArray
+from sqlalchemy import Connection, and_, insert, select
+from sqlalchemy.orm import aliased
 
 from ottag_db.core.geometry import maximal_perturbations
-from ottag_db.core.layout import compute_layouts, layout_supported
-from ottag_db.core.placement import apply_placements, tag_placements
+from ottag_db.core.layout import Layout, lay_out_and_place, layout_supported
+from ottag_db.core.placement import apply_placements, mirrored_placements
 from ottag_db.core.types import ProgressCallback
 from ottag_db.store.db import Database
 from ottag_db.store.models import LayoutRow, OrderType, Realization, coordinates_from_blob
 
-__all__ = ["LAYOUT_BATCH", "add_missing_layouts", "ensure_layouts", "missing_layouts", "store_layouts"]
+__all__ = [
+    "LAYOUT_BATCH",
+    "MIRROR_FROM_ORIGINAL_MIN_K",
+    "BatchMap",
+    "MissingLayout",
+    "add_missing_layouts",
+    "ensure_layouts",
+    "missing_layouts",
+    "store_layouts",
+]
 
 #: Realizations laid out per batch (bounds memory; progress is reported per batch).
 LAYOUT_BATCH = 512
 
+#: From this k on, a mirror image's layout is its original's, reflected (see
+#: :func:`store_layouts`); below it, tags have been printed from separately searched ones.
+MIRROR_FROM_ORIGINAL_MIN_K = 9
+
+#: A ``map``-like callable: ``map_batches(function, batches)`` yields ``function(batch)`` for
+#: each batch, in order (builtin ``map`` or ``ProcessPoolExecutor.map``).
+BatchMap = Callable[
+    [Callable[[NDArray[np.float64]], tuple[list[Layout], NDArray[np.float64]]], Iterable[NDArray[np.float64]]],
+    Iterator[tuple[list[Layout], NDArray[np.float64]]],
+]
+
+
+@dataclass(frozen=True)
+class MissingLayout:
+    """A realization without a stored layout: its id, k, record index and coordinates blob;
+    ``original`` is the coordinates blob of the record it mirrors (None unless a mirror image)."""
+
+    realization_id: int
+    k: int
+    record_index: int
+    coordinates: bytes
+    original: bytes | None
+
 
 def missing_layouts(
     conn: Connection, *, source_id: int | None = None, first: int = 0, stop: int | None = None
-) -> list[tuple[int, int, int, bytes]]:
+) -> list[MissingLayout]:
     """Realizations that can be drawn (k = 3, 5 … 9) and have no stored layout yet.
 
     Parameters
@@ -42,14 +77,24 @@ def missing_layouts(
 
     Returns
     -------
-    list of (int, int, int, bytes)
-        ``(realization id, k, record index, coordinates blob)``, ordered by k, then record
-        index, then id (so a record's realization comes before its mirror's).
+    list of MissingLayout
+        Ordered by k, then record index, then id (so a record's realization comes before its
+        mirror's); a mirror image carries its original's coordinates.
     """
+    twin = aliased(Realization)
     q = (
-        select(Realization.id, OrderType.k, Realization.record_index, Realization.coordinates)
+        select(Realization.id, OrderType.k, Realization.record_index, Realization.coordinates, twin.coordinates)
         .join(OrderType, OrderType.id == Realization.order_type_id)
         .outerjoin(LayoutRow, LayoutRow.realization_id == Realization.id)
+        .outerjoin(
+            twin,
+            and_(
+                Realization.mirrored.is_(True),
+                twin.source_id == Realization.source_id,
+                twin.record_index == Realization.record_index,
+                twin.mirrored.is_(False),
+            ),
+        )
         .where(LayoutRow.id.is_(None), Realization.record_index >= first)
         .order_by(OrderType.k, Realization.record_index, Realization.id)
     )
@@ -57,18 +102,34 @@ def missing_layouts(
         q = q.where(Realization.source_id == source_id)
     if stop is not None:
         q = q.where(Realization.record_index < stop)
-    return [(int(r), int(k), int(i), bytes(b)) for r, k, i, b in conn.execute(q).all() if layout_supported(int(k))]
+    return [
+        MissingLayout(int(r), int(k), int(i), bytes(b), None if t is None else bytes(t))
+        for r, k, i, b, t in conn.execute(q).all()
+        if layout_supported(int(k))
+    ]
 
 
-def store_layouts(conn: Connection, rows: Sequence[tuple[int, bytes]]) -> int:
+def store_layouts(
+    conn: Connection,
+    rows: Sequence[MissingLayout],
+    *,
+    map_batches: BatchMap = map,
+    on_batch: Callable[[int], None] | None = None,
+) -> int:
     """Compute and insert the layout and placement of realizations of one k.
 
     Parameters
     ----------
     conn : Connection
         Connection inside the caller's transaction.
-    rows : sequence of (int, bytes)
-        ``(realization id, coordinates blob)``, every set with the same k (3, 5 … 9).
+    rows : sequence of MissingLayout
+        Realizations of one k (3, 5 … 9), as :func:`missing_layouts` lists them.
+    map_batches : callable, optional
+        ``map``-like: applies :func:`~ottag_db.core.layout.lay_out_and_place` to batches of
+        :data:`LAYOUT_BATCH` sets and yields the results in order (builtin ``map``, or a
+        process pool's ``map`` to use several cores; the results are the same).
+    on_batch : callable, optional
+        Called with the number of rows stored so far, after each batch is inserted.
 
     Returns
     -------
@@ -81,31 +142,77 @@ def store_layouts(conn: Connection, rows: Sequence[tuple[int, bytes]]) -> int:
     :func:`ottag_db.core.placement.tag_placements` (file coordinates → data-area units),
     which is the same map whatever batch a set is placed in, so a sheet drawn from the
     stored map equals one placed afresh. ``printed_mp_unit`` is the MP of the placed points.
+
+    A mirror image of k ≥ :data:`MIRROR_FROM_ORIGINAL_MIN_K` gets its original's triangles and
+    figures and the reflected placement (:func:`~ottag_db.core.placement.mirrored_placements`):
+    its printed tag is the mirror image of the original's, and it costs no search. Below that
+    k mirror images are searched on their own, as they always were: tags of k ≤ 8 have been
+    printed from those layouts, and the two searches can end in different ties.
     """
     if not rows:
         return 0
-    pts = np.stack([coordinates_from_blob(blob) for _, blob in rows]).astype(np.float64)
-    layouts = compute_layouts(pts)
-    maps = tag_placements(pts)
-    placed = apply_placements(maps, pts)
-    printed = maximal_perturbations(placed)
-    values = [
-        {
-            "realization_id": rid,
-            "triangles": ";".join(",".join(str(i) for i in t) for t in lay.triangles),
-            "triangle_count": len(lay.triangles),
-            "min_angle_deg": float(lay.min_angle_deg),
-            "min_side": float(lay.min_side),
-            "min_gap": None if lay.min_gap is None else float(lay.min_gap),
-            "min_shared_gap_deg": None if lay.min_shared_gap_deg is None else float(lay.min_shared_gap_deg),
-            "score": float(lay.score),
-            "placement": json.dumps(m.tolist()),
-            "printed_mp_unit": float(pm),
-        }
-        for (rid, _), lay, m, pm in zip(rows, layouts, maps, printed, strict=True)
-    ]
+    k = rows[0].k
+    # Each distinct input is searched once: a derived mirror shares its original's search.
+    derived = [r.original is not None and k >= MIRROR_FROM_ORIGINAL_MIN_K for r in rows]
+    keys = [r.original if d and r.original is not None else r.coordinates for r, d in zip(rows, derived, strict=True)]
+    slot: dict[bytes, int] = {}
+    for key in keys:
+        slot.setdefault(key, len(slot))
+    slots = [slot[key] for key in keys]
+    inputs = np.stack([coordinates_from_blob(key) for key in slot]).astype(np.float64)
+    batches = [inputs[s : s + LAYOUT_BATCH] for s in range(0, len(inputs), LAYOUT_BATCH)]
+    searched: list[Layout] = []
+    searched_maps = np.empty((len(inputs), 2, 3))
+    row = 0
+    for layouts, maps in map_batches(lay_out_and_place, batches):
+        searched_maps[len(searched) : len(searched) + len(layouts)] = maps
+        searched.extend(layouts)
+        end = row
+        while end < len(rows) and slots[end] < len(searched):
+            end += 1
+        _insert_layouts(conn, rows[row:end], derived[row:end], slots[row:end], searched, searched_maps)
+        row = end
+        if on_batch is not None:
+            on_batch(row)
+    return len(rows)
+
+
+def _insert_layouts(
+    conn: Connection,
+    rows: Sequence[MissingLayout],
+    derived: Sequence[bool],
+    slots: Sequence[int],
+    searched: Sequence[Layout],
+    searched_maps: NDArray[np.float64],
+) -> None:
+    """Insert the layout rows of ``rows`` from the searched layouts and maps (``slots`` index them)."""
+    if not rows:
+        return
+    pts = np.stack([coordinates_from_blob(r.coordinates) for r in rows]).astype(np.float64)
+    maps = searched_maps[list(slots)]
+    mirror = np.flatnonzero(derived)
+    if mirror.size:
+        originals = np.stack([coordinates_from_blob(rows[int(i)].original or b"") for i in mirror]).astype(np.float64)
+        maps[mirror] = mirrored_placements(maps[mirror], pts[mirror, 0, 0] + originals[:, 0, 0])
+    printed = maximal_perturbations(apply_placements(maps, pts))
+    values = []
+    for r, slot_index, m, pm in zip(rows, slots, maps, printed, strict=True):
+        lay = searched[slot_index]
+        values.append(
+            {
+                "realization_id": r.realization_id,
+                "triangles": ";".join(",".join(str(i) for i in t) for t in lay.triangles),
+                "triangle_count": len(lay.triangles),
+                "min_angle_deg": float(lay.min_angle_deg),
+                "min_side": float(lay.min_side),
+                "min_gap": None if lay.min_gap is None else float(lay.min_gap),
+                "min_shared_gap_deg": None if lay.min_shared_gap_deg is None else float(lay.min_shared_gap_deg),
+                "score": float(lay.score),
+                "placement": json.dumps(m.tolist()),
+                "printed_mp_unit": float(pm),
+            }
+        )
     conn.execute(insert(LayoutRow.__table__), values)  # type: ignore[arg-type]
-    return len(values)
 
 
 def add_missing_layouts(conn: Connection, *, progress: ProgressCallback | None = None) -> int:
@@ -125,12 +232,14 @@ def add_missing_layouts(conn: Connection, *, progress: ProgressCallback | None =
     """
     todo = missing_layouts(conn)
     done = 0
-    for k in sorted({row[1] for row in todo}):
-        rows = [(rid, blob) for rid, kk, _, blob in todo if kk == k]
-        for start in range(0, len(rows), LAYOUT_BATCH):
-            done += store_layouts(conn, rows[start : start + LAYOUT_BATCH])
+    for k in sorted({row.k for row in todo}):
+        base = done
+
+        def report(n: int, base: int = base) -> None:
             if progress is not None:
-                progress(done, len(todo))
+                progress(base + n, len(todo))
+
+        done += store_layouts(conn, [row for row in todo if row.k == k], on_batch=report)
     return done
 
 

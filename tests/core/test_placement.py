@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from ottag_db.core.canonical import canonical_batch, canonical_lambda
 from ottag_db.core.geometry import maximal_perturbations
-from ottag_db.core.placement import tag_placement, tag_placements
+from ottag_db.core.placement import mirrored_placements, tag_placement, tag_placements
 from ottag_db.errors import ExportError, UsageError
 from tests.support.paper import FIG4, FIG8
 
@@ -53,6 +53,20 @@ def test_placement_keeps_the_order_type_and_the_margin(
     # Scale-free: the placement of a scaled and shifted copy prints the same points.
     base = tag_placement(SETS[idx].astype(float), margin)
     assert placed == pytest.approx(SETS[idx] @ base[:, :2].T + base[:, 2], abs=1e-6)
+
+
+@settings(deadline=None, max_examples=40)
+@given(idx=st.integers(0, len(SETS) - 1), axis=st.integers(-300, 600), tx=st.integers(-50, 50))
+def test_mirrored_placement_prints_the_reflected_tag(idx: int, axis: int, tx: int) -> None:
+    pts = (SETS[idx] + [tx, 0]).astype(np.float64)
+    mirror = np.stack([axis - pts[:, 0], pts[:, 1]], axis=1)
+    m = tag_placements(pts[None])
+    d = mirrored_placements(m, [axis])
+    placed, mirror_placed = _apply(m, pts[None])[0], _apply(d, mirror[None])[0]
+    np.testing.assert_allclose(mirror_placed, np.stack([1.0 - placed[:, 0], placed[:, 1]], axis=1), atol=1e-9)
+    assert np.linalg.det(d[0, :, :2]) == pytest.approx(np.linalg.det(m[0, :, :2]))  # orientation kept
+    assert maximal_perturbations(mirror_placed) == pytest.approx(maximal_perturbations(placed), rel=1e-9)
+    assert canonical_lambda(mirror_placed) == canonical_lambda(mirror)
 
 
 def test_bad_margin_and_degenerate_sets() -> None:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sqlalchemy import func, select
 
-from ottag_db.core.canonical import canonical_lambda
+from ottag_db.core.canonical import canonical_batch, canonical_lambda
 from ottag_db.core.layout_check import validate_layout
 from ottag_db.core.placement import tag_placements
 from ottag_db.errors import PointFileError
@@ -25,9 +25,10 @@ from ottag_db.store.importer import (
     import_point_file,
     is_imported,
 )
-from ottag_db.store.models import LayoutRow, OrderType, Realization, Source
+from ottag_db.store.models import LayoutRow, OrderType, Realization, Source, coordinates_from_blob
 from ottag_db.store.queries import database_stats
 from tests.support.database import dump_database
+from tests.support.k9_sample import nine_point_sets
 from tests.support.paper import TABLE9
 
 TABLE9_TEXT = "7:" + "".join(str(v) for row in TABLE9 for v in row)
@@ -80,8 +81,83 @@ def test_import_stores_layouts_and_placements(bundled_db_path: Path, bundled_set
             for real, lay in pairs[:50]:
                 assert validate_layout(real.points(), lay.triangle_list()) == []
                 assert lay.triangle_count == -(-k // 3)
+        with db.session() as s:
+            mirrors = s.execute(
+                select(Realization, LayoutRow)
+                .join(LayoutRow, LayoutRow.realization_id == Realization.id)
+                .join(Source, Source.id == Realization.source_id)
+                .where(Realization.mirrored.is_(True), Source.n == 8)
+                .order_by(Realization.record_index)
+                .limit(200)
+            ).all()
+            # Below k = 9 a mirror image's placement is searched on its own (tags were printed so).
+            own = tag_placements(np.stack([real.points() for real, _ in mirrors]))
+            np.testing.assert_array_equal(np.array([json.loads(lay.placement) for _, lay in mirrors]), own)
     finally:
         db.close()
+
+
+def _layout_rows(path: Path) -> list[tuple[int, bool, bytes, str, str, float, float]]:
+    db = open_database(path)
+    try:
+        with db.session() as s:
+            rows = s.execute(
+                select(
+                    Realization.record_index,
+                    Realization.mirrored,
+                    Realization.coordinates,
+                    LayoutRow.triangles,
+                    LayoutRow.placement,
+                    LayoutRow.printed_mp_unit,
+                    LayoutRow.score,
+                )
+                .join(LayoutRow, LayoutRow.realization_id == Realization.id)
+                .order_by(Realization.record_index, Realization.mirrored)
+            ).all()
+        return [tuple(r) for r in rows]  # type: ignore[misc]
+    finally:
+        db.close()
+
+
+def test_nine_point_mirrors_are_their_originals_reflected_and_workers_store_the_same(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = tmp_path / "nine.b08"
+    sets = nine_point_sets(12)
+    write_point_file(path, sets)
+    chiral = sum(
+        t != m for t, m in zip(canonical_batch(sets).texts(), canonical_batch(sets * [-1, 1]).texts(), strict=True)
+    )
+    monkeypatch.setattr("ottag_db.store.layouts.LAYOUT_BATCH", 5)  # several batches per worker pool
+    dumps = []
+    for jobs in (1, 2):
+        db = open_database(tmp_path / f"jobs{jobs}.sqlite")
+        try:
+            import_point_file(db, path, n=9, with_mirrors=True, jobs=jobs)  # jobs = 2: a real process pool
+        finally:
+            db.close()
+        dumps.append(_layout_rows(tmp_path / f"jobs{jobs}.sqlite"))
+    assert dumps[0] == dumps[1]
+    rows = {(r[0], r[1]): r for r in dumps[0]}
+    assert sum(mirrored for _, mirrored in rows) == chiral > 0
+    for (record, mirrored), (_, _, blob, triangles, placement, printed, score) in rows.items():
+        if not mirrored:
+            continue
+        _, _, o_blob, o_triangles, o_placement, o_printed, o_score = rows[(record, False)]
+        assert (triangles, score) == (o_triangles, o_score)
+        placed = _placed(blob, placement)
+        o_placed = _placed(o_blob, o_placement)
+        # The mirror's printed tag is the original's reflected in the data area, same MP.
+        np.testing.assert_allclose(placed, np.stack([1.0 - o_placed[:, 0], o_placed[:, 1]], axis=1), atol=1e-12)
+        assert printed == pytest.approx(o_printed, rel=1e-12)
+        assert placed.min() > 0.1 - 1e-12 and placed.max() < 0.9 + 1e-12
+
+
+def _placed(blob: bytes, placement: str) -> np.ndarray:
+    m = np.array(json.loads(placement))
+    pts = coordinates_from_blob(blob).astype(np.float64)
+    placed: np.ndarray = pts @ m[:, :2].T + m[:, 2]
+    return placed
 
 
 def test_generic_bulk_insert_uses_column_names(tmp_path: Path, bundled_sets: dict[int, np.ndarray]) -> None:
@@ -138,7 +214,7 @@ def test_failed_import_leaves_database_unchanged(
 
 
 def test_progress_counts_records(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr("ottag_db.store.importer.LAYOUT_BATCH", 50)
+    monkeypatch.setattr("ottag_db.store.layouts.LAYOUT_BATCH", 50)
     calls: list[tuple[int, int]] = []
     db = open_database(tmp_path / "p.sqlite")
     try:
