@@ -15,7 +15,7 @@ from itertools import combinations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ottag_db.core.geometry import as_point_batch, check_general_position
+from ottag_db.core.geometry import as_point_batch, check_general_position, maximal_perturbations
 from ottag_db.core.layout_check import validate_layout
 from ottag_db.core.layout_figures import (
     SCORE_REFERENCES,
@@ -25,7 +25,7 @@ from ottag_db.core.layout_figures import (
     index_tables,
     layout_score,
 )
-from ottag_db.core.placement import tag_placements
+from ottag_db.core.placement import apply_placements, tag_placements
 from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import ExportError
 
@@ -291,8 +291,10 @@ def layout_quality(points: ArrayLike, triangles: Sequence[Sequence[int]]) -> Lay
     return _make_layout(tb.tris[ids], angle, side, gap, shared_gap, float(geo.diameter[0]))
 
 
-def lay_out_and_place(points_batch: NDArray[np.float64]) -> tuple[list[Layout], NDArray[np.float64]]:
-    """Layouts and tag placements of a batch: what ``import`` stores for each realization.
+def lay_out_and_place(
+    points_batch: NDArray[np.float64],
+) -> tuple[list[Layout], NDArray[np.float64], NDArray[np.float64]]:
+    """Layouts, tag placements and printed MPs of a batch: what ``import`` stores for each set.
 
     One top-level function of plain arrays, so a process pool can run batches in parallel
     (each result depends on its set only, not on the batch).
@@ -308,5 +310,9 @@ def lay_out_and_place(points_batch: NDArray[np.float64]) -> tuple[list[Layout], 
         :func:`compute_layouts` of the batch.
     maps : ndarray of float64, shape (B, 2, 3)
         :func:`~ottag_db.core.placement.tag_placements` of the batch.
+    printed : ndarray of float64, shape (B,)
+        MP of the placed points, in data-area sides.
     """
-    return compute_layouts(points_batch), tag_placements(points_batch)
+    maps = tag_placements(points_batch)
+    printed = maximal_perturbations(apply_placements(maps, points_batch))
+    return compute_layouts(points_batch), maps, printed

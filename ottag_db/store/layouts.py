@@ -7,7 +7,6 @@ databases made before that; everything that draws tags only reads them (see
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -16,9 +15,8 @@ from numpy.typing import NDArray
 from sqlalchemy import Connection, and_, insert, select
 from sqlalchemy.orm import aliased
 
-from ottag_db.core.geometry import maximal_perturbations
 from ottag_db.core.layout import Layout, lay_out_and_place, layout_supported
-from ottag_db.core.placement import apply_placements, mirrored_placements
+from ottag_db.core.placement import mirrored_placements
 from ottag_db.core.types import ProgressCallback
 from ottag_db.store.db import Database
 from ottag_db.store.models import LayoutRow, OrderType, Realization, coordinates_from_blob
@@ -43,10 +41,8 @@ MIRROR_FROM_ORIGINAL_MIN_K = 9
 
 #: A ``map``-like callable: ``map_batches(function, batches)`` yields ``function(batch)`` for
 #: each batch, in order (builtin ``map`` or ``ProcessPoolExecutor.map``).
-BatchMap = Callable[
-    [Callable[[NDArray[np.float64]], tuple[list[Layout], NDArray[np.float64]]], Iterable[NDArray[np.float64]]],
-    Iterator[tuple[list[Layout], NDArray[np.float64]]],
-]
+_Searched = tuple[list[Layout], NDArray[np.float64], NDArray[np.float64]]
+BatchMap = Callable[[Callable[[NDArray[np.float64]], _Searched], Iterable[NDArray[np.float64]]], Iterator[_Searched]]
 
 
 @dataclass(frozen=True)
@@ -163,14 +159,18 @@ def store_layouts(
     batches = [inputs[s : s + LAYOUT_BATCH] for s in range(0, len(inputs), LAYOUT_BATCH)]
     searched: list[Layout] = []
     searched_maps = np.empty((len(inputs), 2, 3))
+    searched_printed = np.empty(len(inputs))
     row = 0
-    for layouts, maps in map_batches(lay_out_and_place, batches):
+    for layouts, maps, printed in map_batches(lay_out_and_place, batches):
         searched_maps[len(searched) : len(searched) + len(layouts)] = maps
+        searched_printed[len(searched) : len(searched) + len(layouts)] = printed
         searched.extend(layouts)
         end = row
         while end < len(rows) and slots[end] < len(searched):
             end += 1
-        _insert_layouts(conn, rows[row:end], derived[row:end], slots[row:end], searched, searched_maps)
+        _insert_layouts(
+            conn, rows[row:end], derived[row:end], slots[row:end], searched, searched_maps, searched_printed
+        )
         row = end
         if on_batch is not None:
             on_batch(row)
@@ -184,17 +184,22 @@ def _insert_layouts(
     slots: Sequence[int],
     searched: Sequence[Layout],
     searched_maps: NDArray[np.float64],
+    searched_printed: NDArray[np.float64],
 ) -> None:
-    """Insert the layout rows of ``rows`` from the searched layouts and maps (``slots`` index them)."""
+    """Insert the layout rows of ``rows`` from the searched results (``slots`` index them)."""
     if not rows:
         return
-    pts = np.stack([coordinates_from_blob(r.coordinates) for r in rows]).astype(np.float64)
     maps = searched_maps[list(slots)]
+    # A derived mirror prints its original's tag reflected: the same printed MP.
+    printed = searched_printed[list(slots)]
     mirror = np.flatnonzero(derived)
     if mirror.size:
-        originals = np.stack([coordinates_from_blob(rows[int(i)].original or b"") for i in mirror]).astype(np.float64)
-        maps[mirror] = mirrored_placements(maps[mirror], pts[mirror, 0, 0] + originals[:, 0, 0])
-    printed = maximal_perturbations(apply_placements(maps, pts))
+        axis = [
+            coordinates_from_blob(rows[int(i)].coordinates)[0, 0]
+            + coordinates_from_blob(rows[int(i)].original or b"")[0, 0]
+            for i in mirror
+        ]
+        maps[mirror] = mirrored_placements(maps[mirror], axis)
     values = []
     for r, slot_index, m, pm in zip(rows, slots, maps, printed, strict=True):
         lay = searched[slot_index]
@@ -208,11 +213,21 @@ def _insert_layouts(
                 "min_gap": None if lay.min_gap is None else float(lay.min_gap),
                 "min_shared_gap_deg": None if lay.min_shared_gap_deg is None else float(lay.min_shared_gap_deg),
                 "score": float(lay.score),
-                "placement": json.dumps(m.tolist()),
+                "placement": _placement_json(m),
                 "printed_mp_unit": float(pm),
             }
         )
     conn.execute(insert(LayoutRow.__table__), values)  # type: ignore[arg-type]
+
+
+def _first_x(blob: bytes) -> int:
+    return int(coordinates_from_blob(blob)[0, 0])
+
+
+def _placement_json(m: NDArray[np.float64]) -> str:
+    """``json.dumps(m.tolist())`` of a finite ``(2, 3)`` map, without the encoder's overhead."""
+    (a, b, c), (d, e, f) = m.tolist()
+    return f"[[{a!r}, {b!r}, {c!r}], [{d!r}, {e!r}, {f!r}]]"
 
 
 def add_missing_layouts(conn: Connection, *, progress: ProgressCallback | None = None) -> int:
