@@ -32,13 +32,13 @@ ALLOWED: dict[str, frozenset[str]] = {
 
 #: Third-party packages a sub-package must not import (heavy, or outside its concern).
 FORBIDDEN_THIRD_PARTY: dict[str, frozenset[str]] = {
-    "core": frozenset({"cv2", "scipy", "sqlalchemy", "alembic", "reportlab", "click"}),
-    "files": frozenset({"cv2", "scipy", "sqlalchemy", "alembic", "reportlab", "click"}),
-    "decode": frozenset({"sqlalchemy", "alembic", "reportlab", "click"}),
-    "printing": frozenset({"sqlalchemy", "alembic", "click"}),
+    "core": frozenset({"cv2", "scipy", "sqlalchemy", "alembic", "reportlab", "click", "numba"}),
+    "files": frozenset({"cv2", "scipy", "sqlalchemy", "alembic", "reportlab", "click", "numba"}),
+    "decode": frozenset({"sqlalchemy", "alembic", "reportlab", "click", "numba"}),
+    "printing": frozenset({"sqlalchemy", "alembic", "click", "numba"}),
     "generation": frozenset({"cv2", "sqlalchemy", "alembic", "reportlab", "click"}),
-    "store": frozenset({"cv2", "reportlab", "click"}),
-    "app": frozenset({"click"}),
+    "store": frozenset({"cv2", "reportlab", "click", "numba"}),
+    "app": frozenset({"click", "numba"}),
 }
 
 MAX_MODULE_LINES = 500

@@ -1,27 +1,28 @@
 """Continuous stage for many sets at once: gradient ascent on a soft minimum of the heights.
 
 The realizer's per-set SLSQP (:mod:`ottag_db.generation.continuous`) costs about 0.2 s per
-set; for the 158,817 nine-point order types this module optimizes a whole batch
-``(N, k, 2)`` with numpy instead. The objective is the log-sum-exp soft minimum of the
-signed heights of every triangle (the three point-to-line distances of every triple, signs
-from the target order type), maximized by Adam in the box [0, GRID_MAX]². The smoothing
-``τ`` is a fraction of each set's current smallest height, shrinking from ``tau_start`` to
-``tau_end`` over the run, so the ascent is scale-free and ends close to the true
-max-min. A step that would make any height ≤ 0 (flip a triple) is never taken: that set
-stays where it was and halves its step size. The best iterate (largest smallest height) of
-each set is returned.
+set; for the 158,817 nine-point order types this module raises the MP of a whole batch
+``(N, k, 2)`` in a compiled loop (Numba) instead. The objective is the log-sum-exp soft
+minimum of the signed heights of every triangle (the three point-to-line distances of every
+triple, signs from the target order type), maximized by Adam in the box [0, GRID_MAX]². The
+smoothing ``τ`` is a fraction of each set's current smallest height, shrinking from
+``tau_start`` to ``tau_end`` over the run, so the ascent is scale-free and ends close to the
+true max-min (with enough steps, as close as an SLSQP polish: see ``default_effort``). A step
+that would make any height ≤ 0 (flip a triple) is never taken: that set stays where it was and
+halves its step size. The best iterate (largest smallest height) of each set is returned.
 
-Every operation acts row by row (elementwise arithmetic, gathers, reductions along the
-axes of one set; no BLAS), so a set's result does not depend on the other sets of the batch
-nor on how sets are split into batches.
+Each set is optimized on its own, in a fixed order of operations, so its result does not
+depend on the other sets of the batch nor on how sets are split into batches. Terms of the
+soft minimum more than ``_SOFT_MIN_CUTOFF`` smoothing scales above the minimum weigh less
+than e⁻⁴⁰ and are skipped (most of them, once ``τ`` is small).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from ottag_db.core.geometry import triple_indices
@@ -38,6 +39,8 @@ _TAU_FLOOR = 1e-3
 _STEP_PER_HEIGHT = 1.0 / 3.0
 #: After a refused step the step size halves; each accepted step grows it back by this factor.
 _RATE_RECOVERY = 1.1
+#: Soft-minimum terms ``exp(−(h − h_min)/τ)`` below ``exp(−_SOFT_MIN_CUTOFF)`` count as 0.
+_SOFT_MIN_CUTOFF = 40.0
 
 
 @dataclass(frozen=True)
@@ -57,77 +60,142 @@ class AscentSchedule:
     tau_end: float = 0.003
 
 
-# Constant index table of k, built once per k and read-only.
-@cache
-def _owner_slots(k: int) -> NDArray[np.intp]:
-    """``(k, C(k−1, 2))`` positions of point ``q`` in the stacked per-triple gradients
-    ``[grad a | grad b | grad c]`` (each ``C(k, 3)`` long)."""
-    a, b, c = triple_indices(k)
-    owner = np.concatenate([a, b, c])
-    out = np.stack([np.flatnonzero(owner == q) for q in range(k)])
-    out.flags.writeable = False
-    return out
+@njit(cache=False)
+def _heights(
+    p: NDArray[np.float64],
+    tri: NDArray[np.intp],
+    signs: NDArray[np.float64],
+    h: NDArray[np.float64],
+    lengths: NDArray[np.float64],
+) -> float:
+    """Fill the signed heights ``h`` ``(T, 3)`` and opposite side lengths of set ``p``; return
+    the smallest height (NaN or ≤ 0 when a triple is flat, flipped or degenerate)."""
+    low = np.inf
+    for t in range(tri.shape[0]):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        abx, aby = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]
+        acx, acy = p[c, 0] - p[a, 0], p[c, 1] - p[a, 1]
+        bcx, bcy = p[c, 0] - p[b, 0], p[c, 1] - p[b, 1]
+        d = signs[t] * (abx * acy - aby * acx)
+        lengths[t, 0] = np.sqrt(bcx * bcx + bcy * bcy)
+        lengths[t, 1] = np.sqrt(acx * acx + acy * acy)
+        lengths[t, 2] = np.sqrt(abx * abx + aby * aby)
+        for r in range(3):
+            v = d / lengths[t, r] if lengths[t, r] > 0 else -np.inf
+            h[t, r] = v
+            if not v >= low:  # NaN propagates: such a set is refused
+                low = v
+    return low
 
 
-@dataclass(frozen=True)
-class _State:
-    """Points ``(N, k, 2)`` and the figures of their triples: side vectors ``ab, ac, bc``
-    ``(N, T, 2)``, twice the signed area ``d`` ``(N, T)``, side lengths opposite a, b, c
-    ``lengths`` ``(N, T, 3)``, signed heights ``heights`` ``(N, T, 3)`` and the smallest
-    height ``low`` ``(N,)`` (grid units)."""
+@njit(cache=False)
+def _ascend_one(
+    start: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    tri: NDArray[np.intp],
+    iters: int,
+    lr_start: float,
+    lr_end: float,
+    tau_start: float,
+    tau_end: float,
+    out: NDArray[np.float64],
+) -> float:
+    """Ascend one set from ``start``; write the best iterate to ``out``, return its smallest height."""
+    k = start.shape[0]
+    n_tri = tri.shape[0]
+    p = start.copy()
+    q = np.empty_like(p)
+    h, h_new = np.empty((n_tri, 3)), np.empty((n_tri, 3))
+    lengths, lengths_new = np.empty((n_tri, 3)), np.empty((n_tri, 3))
+    z = np.empty((n_tri, 3))
+    grad = np.empty((k, 2))
+    m1, m2 = np.zeros((k, 2)), np.zeros((k, 2))
+    low = _heights(p, tri, signs, h, lengths)
+    out[:] = p
+    best = low
+    rate = 1.0
+    steps = max(iters - 1, 1)
+    for it in range(iters):
+        if not low > 0:  # a start that breaks the order type is left alone
+            break
+        frac = it / steps
+        lr = lr_start * (lr_end / lr_start) ** frac
+        tau = tau_start * (tau_end / tau_start) ** frac * max(low, _TAU_FLOOR)
+        # Soft-min weights; ∇h_r = (s / L_r) ∇D − (h_r / L_r) ∇L_r per triple (D: twice the
+        # signed area, s its target sign).
+        total = 0.0
+        cut = low + _SOFT_MIN_CUTOFF * tau
+        for t in range(n_tri):
+            for r in range(3):
+                w = np.exp(-(h[t, r] - low) / tau) if h[t, r] < cut else 0.0
+                z[t, r] = w
+                total += w
+        grad[:] = 0.0
+        for t in range(n_tri):
+            if z[t, 0] == 0.0 and z[t, 1] == 0.0 and z[t, 2] == 0.0:
+                continue
+            a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+            abx, aby = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]
+            acx, acy = p[c, 0] - p[a, 0], p[c, 1] - p[a, 1]
+            bcx, bcy = p[c, 0] - p[b, 0], p[c, 1] - p[b, 1]
+            w0 = z[t, 0] / total / lengths[t, 0]
+            w1 = z[t, 1] / total / lengths[t, 1]
+            w2 = z[t, 2] / total / lengths[t, 2]
+            cd = signs[t] * (w0 + w1 + w2)
+            s0 = -(w0 * h[t, 0]) / lengths[t, 0]
+            s1 = -(w1 * h[t, 1]) / lengths[t, 1]
+            s2 = -(w2 * h[t, 2]) / lengths[t, 2]
+            ubx, uby = s0 * bcx, s0 * bcy
+            uax, uay = s1 * acx, s1 * acy
+            ucx, ucy = s2 * abx, s2 * aby
+            # ∇D: a → (−bc_y, bc_x), b → (ac_y, −ac_x), c → (−ab_y, ab_x).
+            grad[a, 0] += -cd * bcy - ucx - uax
+            grad[a, 1] += cd * bcx - ucy - uay
+            grad[b, 0] += cd * acy + ucx - ubx
+            grad[b, 1] += -cd * acx + ucy - uby
+            grad[c, 0] += -cd * aby + uax + ubx
+            grad[c, 1] += cd * abx + uay + uby
+        # Adam moves a coordinate by about the step size, so a step below a third of the
+        # smallest height rarely flips a triple: a near-degenerate start creeps out instead of
+        # having every step refused.
+        gain = min(lr * rate, _STEP_PER_HEIGHT * low) / (1.0 - _BETA1 ** (it + 1))
+        second = 1.0 - _BETA2 ** (it + 1)
+        for i in range(k):
+            for j in range(2):
+                m1[i, j] = _BETA1 * m1[i, j] + (1.0 - _BETA1) * grad[i, j]
+                m2[i, j] = _BETA2 * m2[i, j] + (1.0 - _BETA2) * grad[i, j] * grad[i, j]
+                moved = p[i, j] + gain * m1[i, j] / (np.sqrt(m2[i, j] / second) + 1e-12)
+                q[i, j] = min(max(moved, 0.0), float(GRID_MAX))
+        low_new = _heights(q, tri, signs, h_new, lengths_new)
+        if low_new > 0:  # the order-type guard: a step that flips a triple is refused
+            p, q = q, p
+            h, h_new = h_new, h
+            lengths, lengths_new = lengths_new, lengths
+            low = low_new
+            rate = min(rate * _RATE_RECOVERY, 1.0)
+            if low > best:
+                best = low
+                out[:] = p
+        else:
+            rate *= 0.5
+    return best
 
-    points: NDArray[np.float64]
-    ab: NDArray[np.float64]
-    ac: NDArray[np.float64]
-    bc: NDArray[np.float64]
-    d: NDArray[np.float64]
-    lengths: NDArray[np.float64]
-    heights: NDArray[np.float64]
-    low: NDArray[np.float64]
 
-
-def _state(points: NDArray[np.float64], signs: NDArray[np.float64]) -> _State:
-    a, b, c = triple_indices(points.shape[1])
-    pa, pb, pc = points[:, a], points[:, b], points[:, c]
-    ab, ac, bc = pb - pa, pc - pa, pc - pb
-    d = ab[..., 0] * ac[..., 1] - ab[..., 1] * ac[..., 0]
-    lengths = np.sqrt(np.stack([(bc * bc).sum(-1), (ac * ac).sum(-1), (ab * ab).sum(-1)], axis=-1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        heights = np.where(lengths > 0, (signs * d)[..., None] / lengths, -np.inf)
-    low = heights.reshape(heights.shape[0], -1).min(axis=1)
-    return _State(points, ab, ac, bc, d, lengths, heights, low)
-
-
-def _gradient(st: _State, signs: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Gradient ``(N, k, 2)`` of the soft minimum ``−τ log Σ exp(−h/τ)`` of the heights."""
-    k = st.points.shape[1]
-    z = np.exp(-(st.heights - st.low[:, None, None]) / tau[:, None, None])
-    weights = z / z.sum(axis=(1, 2), keepdims=True)
-    per_length = weights / st.lengths
-    # h_r = s·D / L_r, so ∇h_r = (s / L_r) ∇D − (h_r / L_r) ∇L_r: one coefficient on ∇D per
-    # triple and one per side on the gradient of its length.
-    coef_d = (signs * per_length.sum(axis=-1))[..., None]
-    side = -(per_length * st.heights) / st.lengths
-    u_bc = side[..., 0, None] * st.bc
-    u_ac = side[..., 1, None] * st.ac
-    u_ab = side[..., 2, None] * st.ab
-    # ∇D: a → (−bc_y, bc_x), b → (ac_y, −ac_x), c → (−ab_y, ab_x).
-    ga = coef_d * np.stack([-st.bc[..., 1], st.bc[..., 0]], axis=-1) - u_ab - u_ac
-    gb = coef_d * np.stack([st.ac[..., 1], -st.ac[..., 0]], axis=-1) + u_ab - u_bc
-    gc = coef_d * np.stack([-st.ab[..., 1], st.ab[..., 0]], axis=-1) + u_ac + u_bc
-    stacked = np.concatenate([ga, gb, gc], axis=1)
-    out: NDArray[np.float64] = stacked[:, _owner_slots(k)].sum(axis=2)
-    return out
-
-
-def _keep_rows(new: _State, old: _State, rows: NDArray[np.bool_]) -> _State:
-    """``new`` with ``rows`` taken from ``old`` (the sets whose step was refused)."""
-    fields = []
-    for name in ("points", "ab", "ac", "bc", "d", "lengths", "heights", "low"):
-        arr = getattr(new, name).copy()
-        arr[rows] = getattr(old, name)[rows]
-        fields.append(arr)
-    return _State(*fields)
+@njit(cache=False)
+def _ascend_all(
+    starts: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    tri: NDArray[np.intp],
+    iters: int,
+    lr_start: float,
+    lr_end: float,
+    tau_start: float,
+    tau_end: float,
+    out: NDArray[np.float64],
+    low: NDArray[np.float64],
+) -> None:
+    for n in range(starts.shape[0]):
+        low[n] = _ascend_one(starts[n], signs[n], tri, iters, lr_start, lr_end, tau_start, tau_end, out[n])
 
 
 def soft_min_ascent(
@@ -156,37 +224,10 @@ def soft_min_ascent(
         that already broke ``signs``.
     """
     sch = schedule if schedule is not None else AscentSchedule()
-    # C order for both: the layout of the intermediate arrays follows the inputs', and the
-    # order in which a sum over a set's triples adds its terms follows that layout.
+    pts = np.array(starts, dtype=np.float64, order="C")
     sg = np.ascontiguousarray(signs, dtype=np.float64)
-    st = _state(np.array(starts, dtype=np.float64, order="C"), sg)
-    best = st.points.copy()
-    best_low = st.low.copy()
-    n = best.shape[0]
-    m1 = np.zeros_like(best)
-    m2 = np.zeros_like(best)
-    rate = np.ones(n)
-    steps = max(sch.iters - 1, 1)
-    for t in range(sch.iters):
-        frac = t / steps
-        lr = sch.lr_start * (sch.lr_end / sch.lr_start) ** frac
-        tau = sch.tau_start * (sch.tau_end / sch.tau_start) ** frac * np.maximum(st.low, _TAU_FLOOR)
-        grad = _gradient(st, sg, tau)
-        m1 = _BETA1 * m1 + (1.0 - _BETA1) * grad
-        m2 = _BETA2 * m2 + (1.0 - _BETA2) * grad * grad
-        # Adam moves a coordinate by about the step size, so a step below a third of the
-        # smallest height rarely flips a triple: a near-degenerate start creeps out instead of
-        # having every step refused.
-        gain = np.minimum(lr * rate, _STEP_PER_HEIGHT * np.maximum(st.low, 0.0)) / (1.0 - _BETA1 ** (t + 1))
-        step = gain[:, None, None] * m1 / (np.sqrt(m2 / (1.0 - _BETA2 ** (t + 1))) + 1e-12)
-        new = _state(np.clip(st.points + step, 0.0, float(GRID_MAX)), sg)
-        # The order-type guard: a set whose step would flip (or flatten) a triple stays put.
-        refused = ~(new.low > 0)
-        if refused.any():
-            new = _keep_rows(new, st, refused)
-        rate = np.where(refused, rate * 0.5, np.minimum(rate * _RATE_RECOVERY, 1.0))
-        st = new
-        better = st.low > best_low
-        best[better] = st.points[better]
-        best_low[better] = st.low[better]
-    return best, 0.5 * best_low
+    tri = np.ascontiguousarray(np.stack(triple_indices(pts.shape[1]), axis=1).astype(np.intp))
+    out = np.empty_like(pts)
+    low = np.empty(pts.shape[0])
+    _ascend_all(pts, sg, tri, sch.iters, sch.lr_start, sch.lr_end, sch.tau_start, sch.tau_end, out, low)
+    return out, 0.5 * low

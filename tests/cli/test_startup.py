@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 #: Heavy third-party packages: a command that does not need one must not import it.
-HEAVY = ("numpy", "cv2", "scipy", "reportlab", "sqlalchemy", "alembic")
+HEAVY = ("numpy", "cv2", "scipy", "reportlab", "sqlalchemy", "alembic", "numba")
 
 _PROBE = """
 import json, sys
