@@ -9,8 +9,8 @@ even on a loaded machine (where the wall time would not).
 - **k = 8.** The bundled ``data/ottag-k08.b08`` (3,315 sets) was made by the per-set
   realizer (``default_effort(8)``: SLSQP from 3 starts, rounding, exact roundings of the hard
   sets, integer search, tilt choice) from the realizations of the enumeration, seed 0. The
-  batched realizer (``default_effort(9)``: soft-min ascent of whole batches, SLSQP only below
-  MP 5, incremental integer search) realizes the same order types from the same enumeration
+  batched realizer (``default_effort(9)``: the compiled soft-min ascent of whole batches,
+  4,000 steps, no SLSQP; incremental integer search) realizes the same order types from the same enumeration
   output; the MP quantiles of both are printed, with the per-set realizer's speed measured
   on ``--k8-old`` of the sets (its MP there is the bundled one).
 - **k = 9.** ``--sample`` sets drawn (seeded) from ``--k9``: a pickle of a dict ID text →

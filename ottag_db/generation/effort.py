@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ottag_db.generation.batch_ascent import AscentSchedule
 
-__all__ = ["RealizeEffort", "default_effort"]
+__all__ = ["RealizeEffort", "default_effort", "rescue_efforts"]
 
 
 @dataclass(frozen=True)
@@ -93,3 +93,25 @@ def default_effort(k: int) -> RealizeEffort:
         polish_below=0.0,
         chunk=64,
     )
+
+
+def rescue_efforts(k: int) -> tuple[RealizeEffort, ...]:
+    """Per-set efforts, cheapest first, for a set the batched path could not round.
+
+    First SLSQP from three starts, 24 roundings and the integer search (about 0.4 s for a
+    nine-point set); if that fails too, the same with exact roundings (every floor/ceiling
+    combination of a sub-pixel shift of the optimum, as for the hard eight-point sets; about
+    9 s for nine points).
+
+    Parameters
+    ----------
+    k : int
+        Number of points.
+
+    Returns
+    -------
+    tuple of RealizeEffort
+        Efforts without ``ascent`` (the per-set path), to try in order.
+    """
+    first = RealizeEffort(starts=3, hops=0, search_iters=100 if k >= 9 else 200)
+    return first, replace(first, hard_below=np.inf, exact_variants=1)

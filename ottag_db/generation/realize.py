@@ -24,7 +24,7 @@ from ottag_db.errors import UsageError
 from ottag_db.generation.batch_ascent import soft_min_ascent
 from ottag_db.generation.checkpoint import BatchStore, StoredBatch, batch_digest
 from ottag_db.generation.continuous import optimize_continuous, polish_slsqp, start_points
-from ottag_db.generation.effort import RealizeEffort, default_effort
+from ottag_db.generation.effort import RealizeEffort, default_effort, rescue_efforts
 from ottag_db.generation.objective import triple_signs
 from ottag_db.generation.parallel import BatchRunner, Workers, open_workers
 from ottag_db.generation.rounding import (
@@ -166,7 +166,36 @@ def _realize_chunk_batched(
     cands = [best_roundings(conts[i], signs[i], eff, rngs[i]) for i in range(b)]
     sizes = [c.shape[0] for c in cands]
     found_int, mps = integer_local_search(np.concatenate(cands), np.repeat(signs, sizes, axis=0), eff.search_iters)
-    return _choose(found_int, mps, sizes, texts, [float(m) for m in cont_mps], eff)
+    bounds = np.cumsum([0, *sizes])
+    good = [i for i in range(b) if mps[bounds[i] : bounds[i + 1]].max() > 0]
+    rows_of = np.concatenate([np.arange(bounds[i], bounds[i + 1]) for i in good]) if good else np.arange(0)
+    chosen = _choose(
+        found_int[rows_of],
+        mps[rows_of],
+        [sizes[i] for i in good],
+        [texts[i] for i in good],
+        [float(cont_mps[i]) for i in good],
+        eff,
+    )
+    out: dict[int, RealizedSet] = dict(zip(good, chosen, strict=True))
+    # A set none of whose roundings keeps the order type (a tiny MP the ascent alone did not
+    # open far enough) takes the per-set path: SLSQP from several starts, then exact roundings.
+    for i in range(b):
+        if i not in out:
+            out[i] = _rescue(points[i], texts[i], seed)
+    return [out[i] for i in range(b)]
+
+
+def _rescue(points: NDArray[np.float64], text: str, seed: int) -> RealizedSet:
+    """The per-set path with :func:`~ottag_db.generation.effort.rescue_efforts`, cheapest first."""
+    k = points.shape[0]
+    *cheaper, last = rescue_efforts(k)
+    for eff in cheaper:
+        try:
+            return _realize_chunk((points[None], [text], seed, {k: eff}))[0]
+        except UsageError:
+            continue
+    return _realize_chunk((points[None], [text], seed, {k: last}))[0]
 
 
 def _choose(

@@ -22,7 +22,7 @@ from ottag_db.generation.batch_ascent import AscentSchedule, soft_min_ascent
 from ottag_db.generation.continuous import _to_box
 from ottag_db.generation.effort import default_effort
 from ottag_db.generation.objective import GRID_MAX, grid_mp, signed_mp_terms, triple_signs
-from ottag_db.generation.realize import realize_all
+from ottag_db.generation.realize import _rescue, realize_all
 from ottag_db.generation.rounding import _MOVES, _keys, _lex_argmax, _lex_greater, integer_local_search
 
 SHORT = AscentSchedule(iters=120)
@@ -170,3 +170,17 @@ def test_realize_all_nine_points_keeps_ids_and_ignores_the_batching(nines: np.nd
     assert [s.points.tobytes() for s in small] == [s.points.tobytes() for s in whole]
     assert [s.mp for s in small] == [s.mp for s in whole]
     assert [s.continuous_mp for s in small] == [s.continuous_mp for s in whole]
+
+
+def test_the_per_set_rescue_realizes_a_nearly_degenerate_set(nines: np.ndarray) -> None:
+    # What the batched path falls back to for a set none of whose roundings keeps the order
+    # type: one point 1e-3 grid units off the line of two others is opened up by SLSQP.
+    thin = np.round(nines[6])
+    thin[1] += (thin[1] - thin[0]) % 2  # an integer midpoint of points 0 and 1
+    thin[8] = 0.5 * (thin[0] + thin[1])
+    normal = np.array([-(thin[1] - thin[0])[1], (thin[1] - thin[0])[0]])
+    thin[8] += 1e-3 * normal / np.linalg.norm(normal)
+    text = canonical_batch(thin[None]).texts()[0]
+    got = _rescue(thin, text, seed=2)
+    assert got.text == text and canonical_batch(got.points[None]).texts() == [text]
+    assert got.mp > 0 and got.continuous_mp > 100 * 1e-3
