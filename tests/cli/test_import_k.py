@@ -9,7 +9,7 @@ from pathlib import Path
 from click.testing import CliRunner
 
 from ottag_db.cli import cli
-from ottag_db.files.bundled import bundled_point_files
+from ottag_db.files.bundled import bundled_files_available, bundled_point_files
 
 
 def test_import_k_selects_bundled_files(runner: CliRunner, tmp_path: Path) -> None:
@@ -24,7 +24,7 @@ def test_import_k_selects_bundled_files(runner: CliRunner, tmp_path: Path) -> No
 
 def test_import_k_without_a_bundled_file_is_one_line(runner: CliRunner, tmp_path: Path) -> None:
     db = tmp_path / "a.sqlite"
-    shipped = {k for _p, k in bundled_point_files(tuple(range(3, 9)))}
+    shipped = {k for _p, k, _default in bundled_files_available()}
     missing = 10 if 9 in shipped else 9
     res = runner.invoke(cli, ["import", "--db", str(db), "--k", str(missing)])
     assert res.exit_code == 1
