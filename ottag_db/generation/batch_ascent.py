@@ -60,7 +60,9 @@ class AscentSchedule:
     tau_end: float = 0.003
 
 
-@njit(cache=False)
+# error_model="numpy": no zero-division checks inside the loops (each divisor is tested or
+# positive there), the same results; cache=False: no files written beside the package.
+@njit(cache=False, error_model="numpy")
 def _heights(
     p: NDArray[np.float64],
     tri: NDArray[np.intp],
@@ -88,7 +90,7 @@ def _heights(
     return low
 
 
-@njit(cache=False)
+@njit(cache=False, error_model="numpy")
 def _ascend_one(
     start: NDArray[np.float64],
     signs: NDArray[np.float64],
@@ -181,7 +183,7 @@ def _ascend_one(
     return best
 
 
-@njit(cache=False)
+@njit(cache=False, error_model="numpy")
 def _ascend_all(
     starts: NDArray[np.float64],
     signs: NDArray[np.float64],

@@ -36,7 +36,7 @@ _R = TypeVar("_R")
 _CLEARANCE_TOL = 1e-9
 #: Candidate sets with a smaller relative MP are treated as numerically degenerate.
 _MIN_QUALITY = 1e-9
-#: Base sets per work unit of the enumeration (fixed, so results do not depend on ``jobs``).
+#: Largest number of base sets per work unit of the enumeration.
 _ENUM_CHUNK = 1500
 #: Candidate sets canonicalized per batch (bounds the memory to a few hundred MB).
 _CHUNK_SETS = 200_000
@@ -273,9 +273,14 @@ def _parallel_map(
 def _insert_all(
     base: NDArray[np.float64], jobs: int, stage: str, progress: StageProgress | None
 ) -> dict[str, tuple[NDArray[np.float64], float]]:
-    """:func:`_insert_points` over fixed chunks of ``base`` (so the result is independent of
-    ``jobs``), merged keeping the best quality per ID (earlier chunk on ties)."""
-    chunks = [base[i : i + _ENUM_CHUNK] for i in range(0, base.shape[0], _ENUM_CHUNK)]
+    """:func:`_insert_points` over chunks of ``base``, merged keeping each ID's first best
+    candidate in base order (so the chunks do not matter); equal chunks of at most
+    ``_ENUM_CHUNK``, a multiple of ``jobs`` in number, so no process idles at the end."""
+    n = base.shape[0]
+    count = -(-n // _ENUM_CHUNK)
+    count = jobs * -(-count // jobs)
+    size = max(1, -(-n // count))
+    chunks = [base[i : i + size] for i in range(0, n, size)]
     if progress is not None:
         progress(stage, 0, len(chunks))
 

@@ -133,12 +133,15 @@ def open_workers(workers: Workers) -> Iterator[BatchRunner]:
         with client:
             yield BatchRunner(client)
         return
+    # Worker errors reach the caller as exceptions (one line from the CLI); Dask's own log
+    # lines (a failed task's traceback, a heartbeat that races the cluster's shutdown) are not
+    # for the user.
     cluster = LocalCluster(  # type: ignore[no-untyped-call]
         n_workers=workers.jobs,
         threads_per_worker=1,
         processes=True,
         dashboard_address=None,
-        silence_logs=logging.ERROR,
+        silence_logs=logging.CRITICAL,
     )
     with cluster, Client(cluster, set_as_default=False) as client:  # type: ignore[no-untyped-call]
         yield BatchRunner(client)

@@ -6,9 +6,10 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from ottag_db.core.geometry import triple_figures, triple_indices
+from ottag_db.core.geometry import triple_indices
 from ottag_db.core.types import MP_THRESHOLDS
 from ottag_db.generation.effort import RealizeEffort
 from ottag_db.generation.objective import GRID_MAX, signed_mp_terms, triple_signs
@@ -43,28 +44,6 @@ def _keys(terms: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def _lex_greater(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """Elementwise lexicographic ``a > b`` over the last axis (with tolerance ``_KEY_EPS``)."""
-    result = np.zeros(a.shape[:-1], dtype=bool)
-    decided = np.zeros(a.shape[:-1], dtype=bool)
-    for col in range(a.shape[-1]):
-        gt = a[..., col] > b[..., col] + _KEY_EPS
-        lt = a[..., col] < b[..., col] - _KEY_EPS
-        result |= gt & ~decided
-        decided |= gt | lt
-    return result
-
-
-def _lex_argmax(keys: NDArray[np.float64]) -> NDArray[np.intp]:
-    """Index of the lexicographically largest key along axis 1 of ``(B, M, m)`` (first on ties)."""
-    mask = np.ones(keys.shape[:2], dtype=bool)
-    for col in range(keys.shape[2]):
-        vals = np.where(mask, keys[..., col], -np.inf)
-        mask &= vals >= vals.max(axis=1, keepdims=True) - _KEY_EPS
-    out: NDArray[np.intp] = np.argmax(mask, axis=1)
-    return out
-
-
 # Constant index tables of k, built once per k and read-only.
 @lru_cache(maxsize=16)
 def _moved_triples(k: int) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.intp], NDArray[np.intp]]:
@@ -91,14 +70,16 @@ def integer_local_search(
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Hill-climb integer sets ``(B, k, 2)`` in [0, 255]²: move one point by up to ±3 in x and y.
 
-    Each round evaluates every single-point move of every set at once and applies the best
-    one if it raises the smallest terms (half point-to-line distances) lexicographically;
-    moves changing an orientation (``signs`` ``(B, T)``) are never taken, so the order
-    type is kept. A move of ``q`` only changes the ``C(k−1, 2)`` triples containing ``q``, so
-    only those are recomputed per move and merged with the ``_KEY_SIZE`` smallest terms of the
-    other triples; on integer coordinates below 2**16 every orientation and squared length is
-    exact, so this gives bit for bit what recomputing every triple of every moved set gives
-    (``tests/generation/test_batch_ascent.py`` keeps that evaluation as its oracle).
+    Each round evaluates every single-point move of a set and applies the best one if it
+    raises the smallest terms (half point-to-line distances) lexicographically; moves
+    changing an orientation (``signs`` ``(B, T)``) are never taken, so the order type is
+    kept. A move of ``q`` only changes the ``C(k−1, 2)`` triples containing ``q``, so only those
+    are recomputed per move and merged with the ``_KEY_SIZE`` smallest terms of the other
+    triples; on integer coordinates below 2**16 every orientation and squared length is exact,
+    so this gives bit for bit what recomputing every triple of every moved set gives
+    (``tests/generation/test_batch_ascent.py`` keeps that evaluation as its oracle). The rounds
+    run in a compiled loop (Numba), one set after the other, so a set's result does not depend
+    on the others.
 
     Parameters
     ----------
@@ -117,44 +98,133 @@ def integer_local_search(
     mp : ndarray of float64, shape (B,)
         Their signed MP (grid units; ≤ 0 for an input that already broke ``signs``).
     """
-    pts = np.asarray(points, dtype=np.float64).copy()
-    sg = np.asarray(signs, dtype=np.float64)
+    pts = np.array(points, dtype=np.float64, order="C")
+    sg = np.ascontiguousarray(signs, dtype=np.float64)
     b, k, _ = pts.shape
     inc, us, vs, exc = _moved_triples(k)
-    n_moves = _MOVES.shape[0]
-    terms = signed_mp_terms(pts, sg)
-    keys = _keys(terms)
-    active = np.ones(b, dtype=bool)
-    for _ in range(max_iters):
-        idx = np.flatnonzero(active)
-        if idx.size == 0:
-            break
-        cur = pts[idx]
-        moved = np.clip(cur[:, :, None, :] + _MOVES, 0.0, float(GRID_MAX))  # (n, k, moves, 2)
-        qx, qy = moved[..., 0, None], moved[..., 1, None]
-        u, v = cur[:, us][:, :, None], cur[:, vs][:, :, None]  # (n, k, 1, L, 2)
-        dux, duy = u[..., 0] - qx, u[..., 1] - qy
-        dvx, dvy = v[..., 0] - qx, v[..., 1] - qy
-        d = dux * dvy - duy * dvx
-        uv = u - v
-        longest = np.sqrt(np.maximum(np.maximum(dux * dux + duy * duy, dvx * dvx + dvy * dvy), (uv * uv).sum(-1)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            new_terms = np.where(longest > 0, 0.5 * sg[idx][:, inc][:, :, None] * d / longest, -np.inf)
-        if exc.shape[1]:
-            rest = _keys(terms[idx][:, exc])[:, :, None]
-            new_terms = np.concatenate([new_terms, np.broadcast_to(rest, (*new_terms.shape[:3], rest.shape[-1]))], -1)
-        cand_keys = _keys(new_terms).reshape(idx.size, k * n_moves, -1)
-        rows = np.arange(idx.size)
-        best = _lex_argmax(cand_keys)
-        best_keys = cand_keys[rows, best]
-        improved = _lex_greater(best_keys, keys[idx])
-        take = rows[improved]
-        q = best[improved] // n_moves
-        pts[idx[improved], q] = moved[take, q, best[improved] % n_moves]
-        keys[idx[improved]] = best_keys[improved]
-        terms[idx[improved]] = signed_mp_terms(pts[idx[improved]], sg[idx[improved]])
-        active[idx[~improved]] = False
-    return pts.astype(np.int64), keys[:, 0]
+    tri = np.ascontiguousarray(np.stack(triple_indices(k), axis=1).astype(np.intp))
+    terms = np.ascontiguousarray(signed_mp_terms(pts, sg))
+    mp = np.empty(b)
+    if b:
+        _search_all(pts, sg, terms, tri, inc, us, vs, exc, _MOVES, min(_KEY_SIZE, tri.shape[0]), max_iters, mp)
+    return pts.astype(np.int64), mp
+
+
+@njit(cache=False, error_model="numpy")
+def _smallest(out: NDArray[np.float64], count: int, size: int, x: float) -> int:
+    """Insert ``x`` into the ascending buffer ``out[:size]`` that keeps the ``count`` smallest
+    values seen; return the new size."""
+    if count == 0:
+        return 0
+    if size == count:
+        if not x < out[size - 1]:
+            return size
+        size -= 1
+    j = size
+    while j > 0 and out[j - 1] > x:
+        out[j] = out[j - 1]
+        j -= 1
+    out[j] = x
+    return size + 1
+
+
+@njit(cache=False, error_model="numpy")
+def _set_terms(
+    p: NDArray[np.float64], s: NDArray[np.float64], tri: NDArray[np.intp], terms: NDArray[np.float64]
+) -> None:
+    """``signed_mp_terms`` of one set (the differences form of :func:`~ottag_db.core.geometry.triple_figures`)."""
+    for t in range(tri.shape[0]):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        abx, aby = p[b, 0] - p[a, 0], p[b, 1] - p[a, 1]
+        acx, acy = p[c, 0] - p[a, 0], p[c, 1] - p[a, 1]
+        bcx, bcy = p[c, 0] - p[b, 0], p[c, 1] - p[b, 1]
+        d = abx * acy - aby * acx
+        longest = np.sqrt(max(max(abx * abx + aby * aby, acx * acx + acy * acy), bcx * bcx + bcy * bcy))
+        terms[t] = 0.5 * s[t] * d / longest if longest > 0 else -np.inf
+
+
+@njit(cache=False, error_model="numpy")
+def _search_all(
+    pts: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    terms: NDArray[np.float64],
+    tri: NDArray[np.intp],
+    inc: NDArray[np.intp],
+    us: NDArray[np.intp],
+    vs: NDArray[np.intp],
+    exc: NDArray[np.intp],
+    moves: NDArray[np.float64],
+    m: int,
+    max_iters: int,
+    mp: NDArray[np.float64],
+) -> None:
+    """The rounds of :func:`integer_local_search` for every set (``pts``, ``terms`` updated in place)."""
+    k = pts.shape[1]
+    n_moves = moves.shape[0]
+    n_inc = inc.shape[1]
+    n_exc = exc.shape[1]
+    m_rest = min(m, n_exc)
+    keys = np.empty(m)
+    rest = np.empty(m)
+    cand = np.empty((k * n_moves, m))
+    mask = np.empty(k * n_moves, dtype=np.bool_)
+    buf = np.empty(m)
+    for n in range(pts.shape[0]):
+        p = pts[n]
+        s = signs[n]
+        size = 0
+        for t in range(terms.shape[1]):
+            size = _smallest(keys, m, size, terms[n, t])
+        for _ in range(max_iters):
+            for q in range(k):
+                r = 0
+                for e in range(n_exc):
+                    r = _smallest(rest, m_rest, r, terms[n, exc[q, e]])
+                for mv in range(n_moves):
+                    qx = min(max(p[q, 0] + moves[mv, 0], 0.0), float(GRID_MAX))
+                    qy = min(max(p[q, 1] + moves[mv, 1], 0.0), float(GRID_MAX))
+                    size = r
+                    for j in range(r):
+                        buf[j] = rest[j]
+                    for j in range(n_inc):
+                        ux, uy = p[us[q, j], 0], p[us[q, j], 1]
+                        vx, vy = p[vs[q, j], 0], p[vs[q, j], 1]
+                        dux, duy = ux - qx, uy - qy
+                        dvx, dvy = vx - qx, vy - qy
+                        d = dux * dvy - duy * dvx
+                        uvx, uvy = ux - vx, uy - vy
+                        longest = np.sqrt(max(max(dux * dux + duy * duy, dvx * dvx + dvy * dvy), uvx * uvx + uvy * uvy))
+                        x = 0.5 * s[inc[q, j]] * d / longest if longest > 0 else -np.inf
+                        size = _smallest(buf, m, size, x)
+                    cand[q * n_moves + mv, :] = buf
+            # Lexicographic argmax with tolerance, column by column, first on ties.
+            mask[:] = True
+            for col in range(m):
+                top = -np.inf
+                for i in range(cand.shape[0]):
+                    if mask[i] and cand[i, col] > top:
+                        top = cand[i, col]
+                for i in range(cand.shape[0]):
+                    mask[i] = mask[i] and cand[i, col] >= top - _KEY_EPS
+            best = 0
+            while not mask[best]:
+                best += 1
+            improved = False
+            for col in range(m):
+                if cand[best, col] > keys[col] + _KEY_EPS:
+                    improved = True
+                    break
+                if cand[best, col] < keys[col] - _KEY_EPS:
+                    break
+            if not improved:
+                break
+            q = best // n_moves
+            mv = best % n_moves
+            p[q, 0] = min(max(p[q, 0] + moves[mv, 0], 0.0), float(GRID_MAX))
+            p[q, 1] = min(max(p[q, 1] + moves[mv, 1], 0.0), float(GRID_MAX))
+            keys[:] = cand[best]
+            _set_terms(p, s, tri, terms[n])
+        mp[n] = keys[0]
 
 
 def _rounding_variants(points: NDArray[np.float64], count: int, rng: np.random.Generator) -> NDArray[np.float64]:
@@ -294,10 +364,33 @@ def tilt_failures(points: ArrayLike) -> NDArray[np.int64]:
     depth = cam[..., 2] + _DISTANCE
     u = np.floor(_FOCAL * cam[..., 0] / depth + 0.5)
     v = np.floor(_FOCAL * cam[..., 1] / depth + 0.5)
-    d, _ = triple_figures(np.stack([u, v], axis=-1))
-    signs = triple_signs(pts)[:, None, :]
-    out: NDArray[np.int64] = (np.sign(d) != signs).any(axis=-1).sum(axis=-1).astype(np.int64)
+    tri = np.ascontiguousarray(np.stack(triple_indices(pts.shape[1]), axis=1).astype(np.intp))
+    out = np.zeros(pts.shape[0], dtype=np.int64)
+    _count_flipped_views(
+        np.ascontiguousarray(u), np.ascontiguousarray(v), np.ascontiguousarray(triple_signs(pts)), tri, out
+    )
     return out
+
+
+@njit(cache=False, error_model="numpy")
+def _count_flipped_views(
+    u: NDArray[np.float64],
+    v: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    tri: NDArray[np.intp],
+    out: NDArray[np.int64],
+) -> None:
+    """Per set, the views ``(B, V, k)`` of pixel positions in which some triple's orientation
+    sign differs from ``signs`` (exact: pixel coordinates are small integers)."""
+    for n in range(u.shape[0]):
+        for view in range(u.shape[1]):
+            x, y = u[n, view], v[n, view]
+            for t in range(tri.shape[0]):
+                a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+                d = (x[b] - x[a]) * (y[c] - y[a]) - (y[b] - y[a]) * (x[c] - x[a])
+                if np.sign(d) != signs[n, t]:
+                    out[n] += 1
+                    break
 
 
 def tilt_choice(points: NDArray[np.int64], mps: NDArray[np.float64], tol: float) -> int:

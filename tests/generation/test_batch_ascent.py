@@ -23,7 +23,7 @@ from ottag_db.generation.continuous import _to_box
 from ottag_db.generation.effort import default_effort
 from ottag_db.generation.objective import GRID_MAX, grid_mp, signed_mp_terms, triple_signs
 from ottag_db.generation.realize import _rescue, realize_all
-from ottag_db.generation.rounding import _MOVES, _keys, _lex_argmax, _lex_greater, integer_local_search
+from ottag_db.generation.rounding import _KEY_EPS, _MOVES, _keys, integer_local_search
 
 SHORT = AscentSchedule(iters=120)
 
@@ -102,6 +102,28 @@ def test_a_start_with_a_wrong_orientation_is_left_alone(nines: np.ndarray) -> No
     out, mp = soft_min_ascent(nines[:2], signs, SHORT)
     assert mp[0] > 0 and mp[1] <= 0
     assert np.array_equal(out[1], nines[1])
+
+
+def _lex_greater(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Elementwise lexicographic ``a > b`` over the last axis (with tolerance ``_KEY_EPS``)."""
+    result = np.zeros(a.shape[:-1], dtype=bool)
+    decided = np.zeros(a.shape[:-1], dtype=bool)
+    for col in range(a.shape[-1]):
+        gt = a[..., col] > b[..., col] + _KEY_EPS
+        lt = a[..., col] < b[..., col] - _KEY_EPS
+        result |= gt & ~decided
+        decided |= gt | lt
+    return result
+
+
+def _lex_argmax(keys: NDArray[np.float64]) -> NDArray[np.intp]:
+    """Index of the lexicographically largest key along axis 1 of ``(B, M, m)`` (first on ties)."""
+    mask = np.ones(keys.shape[:2], dtype=bool)
+    for col in range(keys.shape[2]):
+        vals = np.where(mask, keys[..., col], -np.inf)
+        mask &= vals >= vals.max(axis=1, keepdims=True) - _KEY_EPS
+    out: NDArray[np.intp] = np.argmax(mask, axis=1)
+    return out
 
 
 def full_local_search(

@@ -165,3 +165,16 @@ def test_cli_options_and_light_start(tmp_path: Path) -> None:
     proc = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert json.loads(proc.stderr.strip().splitlines()[-1]) == []
     assert "--scheduler" in proc.stdout and "--work-dir" in proc.stdout
+
+
+def test_generate_with_local_workers_prints_no_dask_log_lines(tmp_path: Path) -> None:
+    # A heartbeat that races the local cluster's shutdown used to print Dask's traceback.
+    command = [sys.executable, "-m", "ottag_db", "generate", "--max-k", "5", "--jobs", "2", "--quiet"]
+    proc = subprocess.run(
+        [*command, "--out", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr and "distributed." not in proc.stderr
+    assert "k = 5: 3 order types up to reflection" in proc.stdout

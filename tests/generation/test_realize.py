@@ -125,6 +125,28 @@ def test_set_rng_depends_on_seed_and_id() -> None:
     assert not np.array_equal(a, c) and not np.array_equal(a, d)
 
 
+def test_tilt_failures_count_the_views_that_flip_a_triple() -> None:
+    # Oracle: project every set into the 216 views and compare all orientation signs at once.
+    rng = np.random.default_rng(8)
+    pts = rng.integers(0, 256, size=(30, 8, 2)).astype(float)
+    pts = pts[general_position_mask(pts)]
+    t1, t2 = np.meshgrid(np.arange(0.0, 360.0, 10.0), np.arange(84.0, 90.0), indexing="ij")
+    a, b = np.deg2rad(t1.ravel()), np.deg2rad(t2.ravel())
+    rot = np.stack(
+        [
+            np.stack([np.cos(b) * np.cos(a), np.sin(a), -np.sin(b) * np.cos(a)], axis=1),
+            np.stack([-np.cos(b) * np.sin(a), np.cos(a), np.sin(b) * np.sin(a)], axis=1),
+        ],
+        axis=2,
+    )
+    cam = np.einsum("vij,bkj->bvki", rot, pts - pts.mean(axis=1, keepdims=True))
+    depth = cam[..., 2] + 1000.0
+    pix = np.floor(1000.0 * cam[..., :2] / depth[..., None] + 0.5)
+    expected = (_triple_signs(pix) != _triple_signs(pts)[:, None, :]).any(axis=-1).sum(axis=-1)
+    assert tilt_failures(pts).tolist() == expected.tolist()
+    assert expected.min() < expected.max()
+
+
 def test_tilt_failures_track_small_mp() -> None:
     good = np.array([[0, 0], [255, 0], [128, 255]], float)[None]
     assert tilt_failures(good).shape == (1,)
