@@ -9,7 +9,8 @@ from __future__ import annotations
 import os
 import signal
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Executor
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import datetime
@@ -233,8 +234,9 @@ def import_point_file(
         Accept two records of the same order type (refused by default: Aichholzer's files
         hold each order type once, so a repeat usually means a wrong ``--points``).
     jobs : int
-        Processes that compute layouts and placements (above 1, a pool of spawned worker
-        processes beside this one, which does the SQL); the stored rows are the same.
+        Processes that compute layouts, placements and canonical IDs (above 1, a pool of
+        spawned worker processes beside this one, which does the SQL; the next chunk's IDs
+        are computed while this one's layouts are stored); the stored rows are the same.
 
     Returns
     -------
@@ -284,9 +286,9 @@ def import_point_file(
             conn.execute(update(Source).where(Source.id == source_id).values(mirrors_included=True))
         added = 0
         try:
-            with _layout_workers(jobs if layout_supported(info.n) else 1) as map_batches:
+            with _layout_workers(jobs if layout_supported(info.n) or info.records > _CHUNK_RECORDS else 1) as pool:
                 added = _import_chunks(
-                    conn, info, int(source_id), with_mirrors, only_mirrors, max_coordinate, progress, map_batches
+                    conn, info, int(source_id), with_mirrors, only_mirrors, max_coordinate, progress, pool
                 )
         except GeneralPositionError as exc:
             record = exc.record if exc.record is not None else 0
@@ -348,12 +350,20 @@ def _import_chunks(
     only_mirrors: bool,
     max_coordinate: int,
     progress: ProgressCallback | None,
-    map_batches: BatchMap,
+    pool: Executor | None,
 ) -> int:
+    """Store the file's chunks; with a ``pool``, each chunk's analysis (canonical IDs) runs there
+    while this process stores the layouts of the chunk before it."""
     added = 0
     drawable = layout_supported(info.n)
-    for first, points in iter_point_chunks(info, _CHUNK_RECORDS):
-        data = _analyse(points, first)
+    map_batches: BatchMap = pool.map if pool is not None else map
+    chunks = iter_point_chunks(info, _CHUNK_RECORDS)
+    current = next(chunks, None)
+    analysis = _start_analysis(pool, current)
+    while current is not None:
+        first, points = current
+        data = analysis()
+        current = next(chunks, None)
         if not only_mirrors:
             ids = _upsert_order_types(conn, info.n, data)
             added += _insert_realizations(conn, source_id, first, points, data, ids, mirrored=False)
@@ -366,12 +376,30 @@ def _import_chunks(
                 added += _insert_realizations(
                     conn, source_id, first, mirrored_points, mdata, ids, mirrored=True, keep=chiral
                 )
+        # Queued before this chunk's layout batches, so a worker analyses the next chunk
+        # while the others lay out this one.
+        analysis = _start_analysis(pool, current)
         stop = first + points.shape[0]
         if drawable:
             _store_chunk_layouts(conn, source_id, first, stop, info.records, progress, map_batches)
         if progress is not None:
             progress(stop, info.records)
     return added
+
+
+def _start_analysis(pool: Executor | None, chunk: tuple[int, NDArray[np.int64]] | None) -> Callable[[], _ChunkData]:
+    """The analysis of ``chunk`` (record offset, points): submitted to ``pool``, or computed
+    when called without one; the returned callable gives the result (raising its error)."""
+    if chunk is None:
+        return _no_chunk
+    first, points = chunk
+    if pool is None:
+        return lambda: _analyse(points, first)
+    return pool.submit(_analyse, points, first).result
+
+
+def _no_chunk() -> _ChunkData:
+    raise AssertionError("no chunk left to analyse")
 
 
 def _store_chunk_layouts(
@@ -395,10 +423,10 @@ def _store_chunk_layouts(
 
 
 @contextmanager
-def _layout_workers(jobs: int) -> Iterator[BatchMap]:
-    """``map`` over layout batches: in this process (``jobs = 1``) or a pool of ``jobs`` processes."""
+def _layout_workers(jobs: int) -> Iterator[Executor | None]:
+    """A pool of ``jobs`` processes for layouts and analyses, or None (``jobs = 1``: this process)."""
     if jobs <= 1:
-        yield map
+        yield None
         return
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
@@ -407,7 +435,7 @@ def _layout_workers(jobs: int) -> Iterator[BatchMap]:
     # import handles (rolls the file back) in this process.
     with ProcessPoolExecutor(jobs, mp_context=get_context("spawn"), initializer=_ignore_interrupts) as pool:
         try:
-            yield pool.map
+            yield pool
         except BaseException:
             pool.shutdown(wait=True, cancel_futures=True)
             raise

@@ -193,9 +193,15 @@ def test_mirrors_counts(bundled_db_path: Path) -> None:
     assert {k: s.up_to_reflection for k, s in stats.items()} == {3: 1, 4: 2, 5: 3, 6: 16, 7: 135, 8: 3315}
 
 
+@pytest.mark.parametrize("jobs", [1, 2])
 def test_failed_import_leaves_database_unchanged(
-    bundled_db_path: Path, bundled_sets: dict[int, np.ndarray], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    bundled_db_path: Path,
+    bundled_sets: dict[int, np.ndarray],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    jobs: int,
 ) -> None:
+    # jobs = 2: the bad chunk is analysed in a worker process while the one before is laid out.
     monkeypatch.setattr("ottag_db.store.importer._CHUNK_RECORDS", 500)
     path = tmp_path / "copy.sqlite"
     shutil.copyfile(bundled_db_path, path)
@@ -207,7 +213,7 @@ def test_failed_import_leaves_database_unchanged(
     db = open_database(path)
     try:
         with pytest.raises(PointFileError, match=r"bad.b08: record 1900 \(byte offset 22800\).*collinear"):
-            import_point_file(db, bad, n=6)
+            import_point_file(db, bad, n=6, jobs=jobs)
     finally:
         db.close()
     assert dump_database(path) == before  # no realization, layout or source of the failed file
