@@ -43,6 +43,7 @@ from ottag_db.store.models import (
     Source,
     coordinates_to_blobs,
     labelings_to_texts,
+    triangles_to_text,
 )
 
 #: The ``format`` of a JSON export.
@@ -435,7 +436,7 @@ def _layout_row(realization_id: int, tag: FileTag) -> LayoutRow:
     printed = maximal_perturbations(apply_placements(maps, pts))
     return LayoutRow(
         realization_id=realization_id,
-        triangles=";".join(",".join(str(i) for i in t) for t in lay.triangles),
+        triangles=triangles_to_text(lay.triangles),
         triangle_count=len(lay.triangles),
         min_angle_deg=float(lay.min_angle_deg),
         min_side=float(lay.min_side),

@@ -19,7 +19,7 @@ from ottag_db.core.layout import Layout, lay_out_and_place, layout_supported
 from ottag_db.core.placement import mirrored_placements
 from ottag_db.core.types import ProgressCallback
 from ottag_db.store.db import Database
-from ottag_db.store.models import LayoutRow, OrderType, Realization, coordinates_from_blob
+from ottag_db.store.models import LayoutRow, OrderType, Realization, coordinates_from_blobs, triangles_to_text
 
 __all__ = [
     "LAYOUT_BATCH",
@@ -155,9 +155,10 @@ def store_layouts(
     for key in keys:
         slot.setdefault(key, len(slot))
     slots = [slot[key] for key in keys]
-    inputs = np.stack([coordinates_from_blob(key) for key in slot]).astype(np.float64)
+    inputs = coordinates_from_blobs(list(slot), k).astype(np.float64)
     batches = [inputs[s : s + LAYOUT_BATCH] for s in range(0, len(inputs), LAYOUT_BATCH)]
     searched: list[Layout] = []
+    searched_text: list[str] = []
     searched_maps = np.empty((len(inputs), 2, 3))
     searched_printed = np.empty(len(inputs))
     row = 0
@@ -165,11 +166,16 @@ def store_layouts(
         searched_maps[len(searched) : len(searched) + len(layouts)] = maps
         searched_printed[len(searched) : len(searched) + len(layouts)] = printed
         searched.extend(layouts)
+        searched_text.extend(triangles_to_text(lay.triangles) for lay in layouts)
         end = row
         while end < len(rows) and slots[end] < len(searched):
             end += 1
         _insert_layouts(
-            conn, rows[row:end], derived[row:end], slots[row:end], searched, searched_maps, searched_printed
+            conn,
+            rows[row:end],
+            derived[row:end],
+            slots[row:end],
+            _SearchResults(searched, searched_text, searched_maps, searched_printed),
         )
         row = end
         if on_batch is not None:
@@ -177,51 +183,78 @@ def store_layouts(
     return len(rows)
 
 
+@dataclass(frozen=True)
+class _SearchResults:
+    """The layout searches so far: layouts, their triangles column text, maps and printed MP."""
+
+    layouts: list[Layout]
+    triangles: list[str]
+    maps: NDArray[np.float64]
+    printed: NDArray[np.float64]
+
+
+#: Columns of a layout row, in the order of the tuples :func:`_insert_layouts` builds.
+_LAYOUT_COLUMNS = (
+    "realization_id",
+    "triangles",
+    "triangle_count",
+    "min_angle_deg",
+    "min_side",
+    "min_gap",
+    "min_shared_gap_deg",
+    "score",
+    "placement",
+    "printed_mp_unit",
+)
+
+
 def _insert_layouts(
     conn: Connection,
     rows: Sequence[MissingLayout],
     derived: Sequence[bool],
     slots: Sequence[int],
-    searched: Sequence[Layout],
-    searched_maps: NDArray[np.float64],
-    searched_printed: NDArray[np.float64],
+    searched: _SearchResults,
 ) -> None:
     """Insert the layout rows of ``rows`` from the searched results (``slots`` index them)."""
     if not rows:
         return
-    maps = searched_maps[list(slots)]
+    maps = searched.maps[list(slots)]
     # A derived mirror prints its original's tag reflected: the same printed MP.
-    printed = searched_printed[list(slots)]
+    printed = searched.printed[list(slots)].tolist()
     mirror = np.flatnonzero(derived)
     if mirror.size:
-        axis = [
-            coordinates_from_blob(rows[int(i)].coordinates)[0, 0]
-            + coordinates_from_blob(rows[int(i)].original or b"")[0, 0]
+        # Reflection axis x = (x0 + x0') / 2 from the first point of the mirror and original.
+        first_x = [
+            int.from_bytes(rows[int(i)].coordinates[:2], "little")
+            + int.from_bytes((rows[int(i)].original or b"")[:2], "little")
             for i in mirror
         ]
-        maps[mirror] = mirrored_placements(maps[mirror], axis)
+        maps[mirror] = mirrored_placements(maps[mirror], first_x)
     values = []
     for r, slot_index, m, pm in zip(rows, slots, maps, printed, strict=True):
-        lay = searched[slot_index]
+        lay = searched.layouts[slot_index]
         values.append(
-            {
-                "realization_id": r.realization_id,
-                "triangles": ";".join(",".join(str(i) for i in t) for t in lay.triangles),
-                "triangle_count": len(lay.triangles),
-                "min_angle_deg": float(lay.min_angle_deg),
-                "min_side": float(lay.min_side),
-                "min_gap": None if lay.min_gap is None else float(lay.min_gap),
-                "min_shared_gap_deg": None if lay.min_shared_gap_deg is None else float(lay.min_shared_gap_deg),
-                "score": float(lay.score),
-                "placement": _placement_json(m),
-                "printed_mp_unit": float(pm),
-            }
+            (
+                r.realization_id,
+                searched.triangles[slot_index],
+                len(lay.triangles),
+                float(lay.min_angle_deg),
+                float(lay.min_side),
+                None if lay.min_gap is None else float(lay.min_gap),
+                None if lay.min_shared_gap_deg is None else float(lay.min_shared_gap_deg),
+                float(lay.score),
+                _placement_json(m),
+                pm,
+            )
         )
-    conn.execute(insert(LayoutRow.__table__), values)  # type: ignore[arg-type]
-
-
-def _first_x(blob: bytes) -> int:
-    return int(coordinates_from_blob(blob)[0, 0])
+    if conn.dialect.name == "sqlite":
+        # SQLite fast path: positional rows, without the per-row parameter processing of Core.
+        conn.exec_driver_sql(
+            f"INSERT INTO layouts ({', '.join(_LAYOUT_COLUMNS)}) VALUES ({', '.join('?' * len(_LAYOUT_COLUMNS))})",
+            values,
+        )
+    else:
+        conn.execute(insert(LayoutRow.__table__), [dict(zip(_LAYOUT_COLUMNS, v, strict=True)) for v in values])  # type: ignore[arg-type]
 
 
 def _placement_json(m: NDArray[np.float64]) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from datetime import datetime
 
 import numpy as np
@@ -34,9 +35,11 @@ __all__ = [
     "Realization",
     "Source",
     "coordinates_from_blob",
+    "coordinates_from_blobs",
     "coordinates_to_blobs",
     "labelings_to_texts",
     "triangles_from_text",
+    "triangles_to_text",
 ]
 
 #: Every constraint and index gets a predictable name (needed by batch migrations on SQLite).
@@ -264,6 +267,40 @@ def coordinates_from_blob(blob: bytes) -> NDArray[np.int64]:
         ``(k, 2)`` int64 coordinates in file order.
     """
     return np.frombuffer(blob, dtype="<u2").reshape(-1, 2).astype(np.int64)
+
+
+def coordinates_from_blobs(blobs: Sequence[bytes], k: int) -> NDArray[np.int64]:
+    """Coordinates of many blobs of the ``coordinates`` column at once.
+
+    Parameters
+    ----------
+    blobs : sequence of bytes
+        Little-endian uint16 ``x, y`` pairs, ``k`` points each.
+    k : int
+        Points per set.
+
+    Returns
+    -------
+    ndarray
+        ``(len(blobs), k, 2)`` int64 coordinates in file order.
+    """
+    return np.frombuffer(b"".join(blobs), dtype="<u2").reshape(len(blobs), k, 2).astype(np.int64)
+
+
+def triangles_to_text(triangles: Sequence[Sequence[int]]) -> str:
+    """Value of the ``layouts.triangles`` column (inverse of :func:`triangles_from_text`).
+
+    Parameters
+    ----------
+    triangles : sequence of (int, int, int)
+        File indices of each triangle's vertices.
+
+    Returns
+    -------
+    str
+        ``"a,b,c;d,e,f"``.
+    """
+    return ";".join(",".join(str(i) for i in t) for t in triangles)
 
 
 def triangles_from_text(text: str) -> tuple[tuple[int, int, int], ...]:
