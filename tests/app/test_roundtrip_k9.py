@@ -19,7 +19,8 @@ from ottag_db.app.detector import detector_from_database
 from ottag_db.app.export import TagFilter, export_sheet, render_tag, select_for_export
 from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.layout import validate_layout
-from ottag_db.files.pointfile import write_point_file
+from ottag_db.files.pointfile import read_point_file, write_point_file
+from ottag_db.files.resources import data_dir
 from ottag_db.printing.sheet import SheetOptions
 from ottag_db.store.db import open_database
 from ottag_db.store.importer import import_point_file
@@ -107,3 +108,36 @@ def test_nine_point_tag_renders(k9_db: tuple[Path, list[str]], tmp_path: Path) -
     assert img is not None
     found = detector_from_database(str(path)).detect(img)
     assert [(d.lambda_text, d.polarity) for d in found] == [(texts[0], "inverted")]
+
+
+#: Record 74,211 of the bundled ``ottag-k09.b08``: its tag's sliver tip lies near another
+#: triangle's tip, and at 300 dpi the side lines of both tips nearly meet in one point.
+MERGED_TIPS_RECORD = 74211
+MERGED_TIPS_ID = "9:076543210001342567160641325241053436333204454456430321524334043615425302702136450"
+
+
+def test_tips_of_two_triangles_are_not_read_as_one_shared_point(bundled_db_path: Path, tmp_path: Path) -> None:
+    # In the 2,000-tag round trip this tag read as the eight-point type 8:0654…: merging the two
+    # tips fitted that type's side lines, though its points missed by 26 px. Next to all eight-point
+    # types, it must read as itself.
+    path = tmp_path / "k8k9.sqlite"
+    path.write_bytes(bundled_db_path.read_bytes())
+    src = tmp_path / "one09.b08"
+    record = read_point_file(data_dir() / "ottag-k09.b08", 9)[MERGED_TIPS_RECORD]
+    write_point_file(src, record[None], bits=8)
+    db = open_database(path)
+    try:
+        import_point_file(db, src, n=9, with_mirrors=True)
+        flt = TagFilter(ids=(MERGED_TIPS_ID,))
+        sheet = export_sheet(db, tmp_path / "one.pdf", flt, SheetOptions(tag_size_mm=40.0))
+    finally:
+        db.close()
+    assert sheet.tags == 1
+    doc = pdfium.PdfDocument(str(tmp_path / "one.pdf"))
+    try:
+        image = doc[0].render(scale=300 / 72.0, grayscale=True).to_numpy()
+    finally:
+        doc.close()
+    image = image[:, :, 0] if image.ndim == 3 else image
+    detections = detector_from_database(str(path)).detect(np.ascontiguousarray(image))
+    assert [d.lambda_text for d in detections] == [MERGED_TIPS_ID]
