@@ -216,8 +216,9 @@ def read_quad(
     Returns
     -------
     Detection or Rejection
-        The first hypothesis that reads, else the most telling rejection (the first one after
-        the triangle checks, if any hypothesis got that far).
+        As :func:`~ottag_db.decode.reading.read_area` returns it: the first hypothesis that
+        reads with its points within the reprojection bound (else the best-fitting reading),
+        else the most telling rejection.
     """
     return read_area(gray, quad, catalogue.params, catalogue, alternatives, clock)[0]
 
