@@ -29,7 +29,7 @@ from ottag_db.core.types import ProgressCallback
 from ottag_db.errors import GeneralPositionError, PointFileError
 from ottag_db.files.pointfile import PointFileInfo, file_sha256, inspect_point_file, iter_point_chunks
 from ottag_db.store.db import Database
-from ottag_db.store.layouts import BatchMap, missing_layouts, store_layouts
+from ottag_db.store.layouts import BatchMap, PendingLayouts, finish_layouts, missing_layouts, start_layouts
 from ottag_db.store.models import OrderType, Realization, Source, coordinates_to_blobs, labelings_to_texts
 from ottag_db.store.numbering import assign_numbers
 
@@ -352,14 +352,15 @@ def _import_chunks(
     progress: ProgressCallback | None,
     pool: Executor | None,
 ) -> int:
-    """Store the file's chunks; with a ``pool``, each chunk's analysis (canonical IDs) runs there
-    while this process stores the layouts of the chunk before it."""
+    """Store the file's chunks; with a ``pool``, each chunk's analysis (canonical IDs) and layout
+    searches run there while this process stores the chunk before it."""
     added = 0
     drawable = layout_supported(info.n)
     map_batches: BatchMap = pool.map if pool is not None else map
     chunks = iter_point_chunks(info, _CHUNK_RECORDS)
     current = next(chunks, None)
     analysis = _start_analysis(pool, current)
+    pending: _ChunkLayouts | None = None
     while current is not None:
         first, points = current
         data = analysis()
@@ -380,10 +381,16 @@ def _import_chunks(
         # while the others lay out this one.
         analysis = _start_analysis(pool, current)
         stop = first + points.shape[0]
-        if drawable:
-            _store_chunk_layouts(conn, source_id, first, stop, info.records, progress, map_batches)
-        if progress is not None:
+        # This chunk's searches start now; the previous chunk's are stored while they run, so
+        # the pool is not idle while this process writes a chunk's realizations.
+        started = _start_chunk_layouts(conn, source_id, first, stop, map_batches) if drawable else None
+        if pending is not None:
+            _finish_chunk_layouts(conn, pending, info.records, progress)
+        pending = started
+        if pending is None and progress is not None:
             progress(stop, info.records)
+    if pending is not None:
+        _finish_chunk_layouts(conn, pending, info.records, progress)
     return added
 
 
@@ -402,24 +409,36 @@ def _no_chunk() -> _ChunkData:
     raise AssertionError("no chunk left to analyse")
 
 
-def _store_chunk_layouts(
-    conn: Connection,
-    source_id: int,
-    first: int,
-    stop: int,
-    records: int,
-    progress: ProgressCallback | None,
-    map_batches: BatchMap,
-) -> None:
-    """Lay out the chunk's new realizations; progress counts the records finished."""
+@dataclass(frozen=True)
+class _ChunkLayouts:
+    """A chunk's started layout searches and the record index its records stop at."""
+
+    layouts: PendingLayouts
+    stop: int
+
+
+def _start_chunk_layouts(
+    conn: Connection, source_id: int, first: int, stop: int, map_batches: BatchMap
+) -> _ChunkLayouts:
+    """Start the layout searches of the chunk's new realizations (records ``first … stop − 1``)."""
     todo = missing_layouts(conn, source_id=source_id, first=first, stop=stop)
+    return _ChunkLayouts(start_layouts(todo, map_batches=map_batches), stop)
+
+
+def _finish_chunk_layouts(
+    conn: Connection, chunk: _ChunkLayouts, records: int, progress: ProgressCallback | None
+) -> None:
+    """Store a chunk's layouts; progress counts the records finished."""
+    todo = chunk.layouts.rows
 
     def report(done: int) -> None:
         # The last record of a batch may still have its mirror in the next one.
         if progress is not None and done:
             progress(todo[done - 1].record_index, records)
 
-    store_layouts(conn, todo, map_batches=map_batches, on_batch=report)
+    finish_layouts(conn, chunk.layouts, on_batch=report)
+    if progress is not None:
+        progress(chunk.stop, records)
 
 
 @contextmanager

@@ -26,9 +26,12 @@ __all__ = [
     "MIRROR_FROM_ORIGINAL_MIN_K",
     "BatchMap",
     "MissingLayout",
+    "PendingLayouts",
     "add_missing_layouts",
     "ensure_layouts",
+    "finish_layouts",
     "missing_layouts",
+    "start_layouts",
     "store_layouts",
 ]
 
@@ -145,8 +148,41 @@ def store_layouts(
     k mirror images are searched on their own, as they always were: tags of k ≤ 8 have been
     printed from those layouts, and the two searches can end in different ties.
     """
+    return finish_layouts(conn, start_layouts(rows, map_batches=map_batches), on_batch=on_batch)
+
+
+@dataclass(frozen=True)
+class PendingLayouts:
+    """Layout searches started by :func:`start_layouts` and not yet stored: the ``rows``,
+    whether each is a ``derived`` mirror, the ``slots`` of their searches and the ``results``
+    of the searches (an iterator over batches, computed as it is read or already running)."""
+
+    rows: Sequence[MissingLayout]
+    derived: list[bool]
+    slots: list[int]
+    results: Iterator[_Searched]
+
+
+def start_layouts(rows: Sequence[MissingLayout], *, map_batches: BatchMap = map) -> PendingLayouts:
+    """Start the layout searches of realizations of one k (the first half of :func:`store_layouts`).
+
+    With a process pool's ``map`` every batch is submitted here, so the pool works while the
+    caller does other things (the import stores the previous chunk meanwhile).
+
+    Parameters
+    ----------
+    rows : sequence of MissingLayout
+        Realizations of one k (3, 5 … 9), as :func:`missing_layouts` lists them.
+    map_batches : callable, optional
+        See :func:`store_layouts`.
+
+    Returns
+    -------
+    PendingLayouts
+        What :func:`finish_layouts` stores.
+    """
     if not rows:
-        return 0
+        return PendingLayouts(rows, [], [], iter(()))
     k = rows[0].k
     # Each distinct input is searched once: a derived mirror shares its original's search.
     derived = [r.original is not None and k >= MIRROR_FROM_ORIGINAL_MIN_K for r in rows]
@@ -154,15 +190,37 @@ def store_layouts(
     slot: dict[bytes, int] = {}
     for key in keys:
         slot.setdefault(key, len(slot))
-    slots = [slot[key] for key in keys]
     inputs = coordinates_from_blobs(list(slot), k).astype(np.float64)
     batches = [inputs[s : s + LAYOUT_BATCH] for s in range(0, len(inputs), LAYOUT_BATCH)]
+    return PendingLayouts(rows, derived, [slot[key] for key in keys], iter(map_batches(lay_out_and_place, batches)))
+
+
+def finish_layouts(conn: Connection, pending: PendingLayouts, *, on_batch: Callable[[int], None] | None = None) -> int:
+    """Insert the layouts of :func:`start_layouts` as their batches come in (the second half of
+    :func:`store_layouts`).
+
+    Parameters
+    ----------
+    conn : Connection
+        Connection inside the caller's transaction.
+    pending : PendingLayouts
+        The started searches.
+    on_batch : callable, optional
+        Called with the number of rows stored so far, after each batch is inserted.
+
+    Returns
+    -------
+    int
+        Number of layout rows inserted.
+    """
+    rows, derived, slots = pending.rows, pending.derived, pending.slots
     searched: list[Layout] = []
     searched_text: list[str] = []
-    searched_maps = np.empty((len(inputs), 2, 3))
-    searched_printed = np.empty(len(inputs))
+    total = max(slots, default=-1) + 1
+    searched_maps = np.empty((total, 2, 3))
+    searched_printed = np.empty(total)
     row = 0
-    for layouts, maps, printed in map_batches(lay_out_and_place, batches):
+    for layouts, maps, printed in pending.results:
         searched_maps[len(searched) : len(searched) + len(layouts)] = maps
         searched_printed[len(searched) : len(searched) + len(layouts)] = printed
         searched.extend(layouts)
