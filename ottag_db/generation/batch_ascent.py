@@ -25,8 +25,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from ottag_db.core.geometry import triple_indices
-from ottag_db.generation.objective import GRID_MAX
+from ottag_db.generation.objective import GRID_MAX, triple_table
 
 __all__ = ["AscentSchedule", "soft_min_ascent"]
 
@@ -228,7 +227,7 @@ def soft_min_ascent(
     sch = schedule if schedule is not None else AscentSchedule()
     pts = np.array(starts, dtype=np.float64, order="C")
     sg = np.ascontiguousarray(signs, dtype=np.float64)
-    tri = np.ascontiguousarray(np.stack(triple_indices(pts.shape[1]), axis=1).astype(np.intp))
+    tri = triple_table(pts.shape[1])
     out = np.empty_like(pts)
     low = np.empty(pts.shape[0])
     _ascend_all(pts, sg, tri, sch.iters, sch.lr_start, sch.lr_end, sch.tau_start, sch.tau_end, out, low)

@@ -7,15 +7,38 @@ All use the smallest height of a triangle, ``|D| / longest side``, from
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ottag_db.core.geometry import triple_figures, triple_orientations
+from ottag_db.core.geometry import triple_figures, triple_indices, triple_orientations
 
-__all__ = ["GRID_MAX", "grid_mp", "relative_mp", "signed_mp_terms", "triple_signs"]
+__all__ = ["GRID_MAX", "grid_mp", "relative_mp", "signed_mp_terms", "triple_signs", "triple_table"]
 
 #: Largest coordinate of the 8-bit grid; points live in [0, GRID_MAX]².
 GRID_MAX = 255
+
+
+# A constant index table of k, built once per k and read-only.
+@lru_cache(maxsize=16)
+def triple_table(k: int) -> NDArray[np.intp]:
+    """The triples ``a < b < c`` of :func:`~ottag_db.core.geometry.triple_indices` as one
+    contiguous ``(C(k, 3), 3)`` table, the form the compiled loops of the generator read.
+
+    Parameters
+    ----------
+    k : int
+        Number of points.
+
+    Returns
+    -------
+    ndarray of intp, shape (C(k, 3), 3)
+        One row ``(a, b, c)`` per triple (read-only).
+    """
+    out = np.ascontiguousarray(np.stack(triple_indices(k), axis=1).astype(np.intp))
+    out.flags.writeable = False
+    return out
 
 
 def triple_signs(points: NDArray[np.float64]) -> NDArray[np.float64]:

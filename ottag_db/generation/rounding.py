@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 from ottag_db.core.geometry import triple_indices
 from ottag_db.core.types import MP_THRESHOLDS
 from ottag_db.generation.effort import RealizeEffort
-from ottag_db.generation.objective import GRID_MAX, signed_mp_terms, triple_signs
+from ottag_db.generation.objective import GRID_MAX, signed_mp_terms, triple_signs, triple_table
 
 __all__ = [
     "best_roundings",
@@ -102,7 +102,7 @@ def integer_local_search(
     sg = np.ascontiguousarray(signs, dtype=np.float64)
     b, k, _ = pts.shape
     inc, us, vs, exc = _moved_triples(k)
-    tri = np.ascontiguousarray(np.stack(triple_indices(k), axis=1).astype(np.intp))
+    tri = triple_table(k)
     terms = np.ascontiguousarray(signed_mp_terms(pts, sg))
     mp = np.empty(b)
     if b:
@@ -364,7 +364,7 @@ def tilt_failures(points: ArrayLike) -> NDArray[np.int64]:
     depth = cam[..., 2] + _DISTANCE
     u = np.floor(_FOCAL * cam[..., 0] / depth + 0.5)
     v = np.floor(_FOCAL * cam[..., 1] / depth + 0.5)
-    tri = np.ascontiguousarray(np.stack(triple_indices(pts.shape[1]), axis=1).astype(np.intp))
+    tri = triple_table(pts.shape[1])
     out = np.zeros(pts.shape[0], dtype=np.int64)
     _count_flipped_views(
         np.ascontiguousarray(u), np.ascontiguousarray(v), np.ascontiguousarray(triple_signs(pts)), tri, out
