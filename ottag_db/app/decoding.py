@@ -252,6 +252,7 @@ def detection_json(
         "reprojection_error_px": None if d.reprojection_error_px is None else round(d.reprojection_error_px, 4),
         "margin_px": round(d.margin_px, 4),
         "corrected_flips": d.corrected_flips,
+        "model_correlation": None if d.model_correlation is None else round(d.model_correlation, 4),
     }
     if camera is not None and tag_size is not None:
         placement = None if d.model_points is None else tag_placement(d.model_points)

@@ -12,16 +12,31 @@ from numpy.typing import NDArray
 from ottag_db.core.types import Polarity
 from ottag_db.decode.types import Detection, DetectorParams, Quad
 
-__all__ = ["Binarization", "around_detection", "find_quads", "same_quad", "same_tag", "squeeze"]
+__all__ = [
+    "Binarization",
+    "around_detection",
+    "find_quads",
+    "same_quad",
+    "same_tag",
+    "searches_at_half_resolution",
+    "shows_print",
+    "squeeze",
+]
 
 _F64 = NDArray[np.float64]
 
 #: How a frame is binarized for the quad search: local mean or global Otsu threshold.
-Binarization = Literal["adaptive", "otsu"]
+Binarization = Literal["adaptive", "otsu", "adaptive_thin"]
 
 #: The half-resolution candidate search is used only while the smallest data area keeps at
 #: least this side (px) there.
 HALF_RES_MIN_SIDE = 6.0
+#: A thin quad (a data area seen at 84–86°, short sides 7–10 px at 1.5 m) is kept with short
+#: sides down to this fraction of ``min_quad_side_px`` when its two long sides are at least
+#: ``THIN_QUAD_LONG_SIDE`` times it: reading by model (:mod:`~ottag_db.decode.model_match`)
+#: can still choose the tag, and the long sides keep specks and text strokes out.
+THIN_QUAD_MIN_SIDE = 0.5
+THIN_QUAD_LONG_SIDE = 3.0
 
 
 def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams) -> list[Quad]:
@@ -34,8 +49,11 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     ----------
     gray : numpy.ndarray
         ``(H, W)`` uint8 frame.
-    kind : {"adaptive", "otsu"}
-        Local mean thresholding or global Otsu.
+    kind : {"adaptive", "otsu", "adaptive_thin"}
+        Local mean thresholding (at half resolution when :func:`searches_at_half_resolution`),
+        global Otsu, or local mean thresholding at full resolution keeping only the thin quads
+        (area over longest side under ``2 · HALF_RES_MIN_SIDE``) a half-resolution search
+        cannot see.
     params : DetectorParams
         Uses the binarization, polarity, size and ``max_candidates`` settings.
 
@@ -57,7 +75,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     else:
         block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
         src: NDArray[Any] = gray
-        if not p.adaptive_block and min(h, w) >= 240 and p.min_quad_side_px >= 2 * HALF_RES_MIN_SIDE:
+        if kind == "adaptive" and searches_at_half_resolution(gray.shape, p):
             f = 2
             src = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
             block = max(7, (block // 2) | 1)
@@ -101,10 +119,15 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             or max(ay, by, cy, dy) > h - 3
         ):
             continue
-        if min(
+        sides = sorted((
             math.hypot(bx - ax, by - ay), math.hypot(cx - bx, cy - by),
             math.hypot(dx - cx, dy - cy), math.hypot(ax - dx, ay - dy),
-        ) < p.min_quad_side_px:  # fmt: skip
+        ))  # fmt: skip
+        if kind == "adaptive_thin" and area >= 2 * HALF_RES_MIN_SIDE * sides[3]:
+            continue  # not thin (area over the longest side): the half-resolution pass sees it
+        if sides[0] < p.min_quad_side_px and (
+            sides[0] < THIN_QUAD_MIN_SIDE * p.min_quad_side_px or sides[2] < THIN_QUAD_LONG_SIDE * p.min_quad_side_px
+        ):
             continue
         polarity: Polarity = "inverted" if inverted else "normal"
         cand = Quad(polarity, clockwise(q), area)
@@ -112,6 +135,25 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             quads.append(cand)
     quads.sort(key=lambda qq: -qq.area)
     return quads[: p.max_candidates]
+
+
+def searches_at_half_resolution(shape: tuple[int, ...], params: DetectorParams) -> bool:
+    """Whether the ``"adaptive"`` pass of :func:`find_quads` runs at half resolution: with the
+    automatic window, on frames of at least 240 px, while the smallest data area keeps sides of
+    ``HALF_RES_MIN_SIDE`` px there.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(H, W)`` of the frame.
+    params : DetectorParams
+        ``adaptive_block`` and ``min_quad_side_px``.
+
+    Returns
+    -------
+    bool
+    """
+    return not params.adaptive_block and min(shape[:2]) >= 240 and params.min_quad_side_px >= 2 * HALF_RES_MIN_SIDE
 
 
 def clockwise(q: _F64) -> _F64:
@@ -216,3 +258,27 @@ def squeeze(quad: Quad) -> float:
     diagonals = np.stack([q[2] - q[0], q[3] - q[1]], axis=1)
     sv = np.linalg.svd(diagonals, compute_uv=False)
     return float(sv[1] / max(float(sv[0]), 1e-12))
+
+
+def shows_print(quad: Quad, params: DetectorParams) -> bool:
+    """Whether a reading of this candidate must show its tag as printed (the stored layout and
+    placement, when the lookup knows them): at oblique views (:func:`squeeze` at most
+    ``layout_check_ratio``) and on small data areas (side ``sqrt(area)`` under
+    ``print_check_side_px``), where a vertex lost at a sliver tip or in a blurred corner can
+    leave the points of another order type that fits within the bound. Elsewhere tags drawn by
+    other programs (other triangles, another placement) still read.
+
+    Parameters
+    ----------
+    quad : Quad
+        The candidate.
+    params : DetectorParams
+        ``layout_check_ratio`` (0: never) and ``print_check_side_px`` (0: never by size).
+
+    Returns
+    -------
+    bool
+    """
+    if params.layout_check_ratio <= 0:
+        return False
+    return squeeze(quad) <= params.layout_check_ratio or math.sqrt(quad.area) < params.print_check_side_px

@@ -3,7 +3,7 @@
 Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.types`)::
 
     image        to_gray                          image → grey
-    candidates   find_quads                       grey → Quad (adaptive, then Otsu)
+    candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads)
     segmentation segment / decompose              Quad → DataArea → [Decomposition]
     triangles    (triangle fits and splits, inside decompose)
     refine       refine                           Decomposition → TriangleLines (+ quad corners)
@@ -12,6 +12,7 @@ Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.typ
     verify       verify                           → Detection | Rejection
     upsample     (a failed candidate read again at 2×)
     rectify      (a failed candidate read again in a fronto-parallel view of its data area)
+    model        (a failed foreshortened candidate: the printed tags aligned to the image)
 """
 
 from __future__ import annotations
@@ -24,9 +25,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
-from ottag_db.decode.candidates import Binarization, around_detection, find_quads, same_quad, same_tag
+from ottag_db.decode.candidates import (
+    Binarization,
+    around_detection,
+    find_quads,
+    same_quad,
+    same_tag,
+    searches_at_half_resolution,
+)
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
+from ottag_db.decode.model_match import read_model, template_bank, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
@@ -107,6 +116,8 @@ class Detector:
         self._catalogue = Catalogue(lookup, ks, params)
         # the 2× re-read measures lengths in upsampled pixels
         self._upsampled = Catalogue(lookup, ks, scaled_params(params, _UPSAMPLE))
+        # the printed tags as templates, for reading by model at grazing views
+        self._bank = template_bank(lookup, params.model_max_templates) if params.model_match else None
 
     @property
     def lookup(self) -> TagLookup:
@@ -170,10 +181,14 @@ class Detector:
             passes.append("adaptive")
         if p.use_otsu:
             passes.append("otsu")
+        if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
+            passes.append("adaptive_thin")
         seen: list[Quad] = []
         for kind in passes:
             if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
                 break  # the global threshold is the fallback of the local one
+            if kind == "adaptive_thin" and detections:
+                break  # the last resort of a frame that read nothing: data areas seen nearly edge-on
             quads = [q for q in find_quads(gray, kind, p) if not any(same_quad(q, o) for o in seen)]
             seen.extend(quads)
             clock.lap("candidates")
@@ -187,6 +202,9 @@ class Detector:
                     result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                 if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
                     result = read_rectified(gray, quad, result, self._catalogue, clock)
+                bank = self._bank
+                if isinstance(result, Rejection) and bank and wants_model(quad, result, _RETRY_UPSAMPLED, p):
+                    result = read_model(gray, quad, result, bank, p, clock)
                 if isinstance(result, Rejection):
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):

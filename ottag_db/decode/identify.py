@@ -13,7 +13,7 @@ from ottag_db.core.layout import LAYOUT_MAX_K
 from ottag_db.core.lookup import LookupEntry, TagLookup
 from ottag_db.core.single_set import OrientationTable, read_set
 from ottag_db.core.types import Polarity
-from ottag_db.decode.candidates import squeeze
+from ottag_db.decode.candidates import shows_print
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.soft import (
     FlipReading,
@@ -28,7 +28,7 @@ from ottag_db.decode.soft import (
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 from ottag_db.decode.verify import Assessment, SideLines, assess, verify
 
-__all__ = ["Catalogue", "identify"]
+__all__ = ["Catalogue", "for_polarity", "identify"]
 
 _F64 = NDArray[np.float64]
 
@@ -95,13 +95,14 @@ def identify(
             lam, k, None, None, quad.polarity, pts[list(minimal[0])], None,
             corners, None, None, table.margin,
         )  # fmt: skip
-    member = _for_polarity(entry, quad.polarity, lam)
+    member = for_polarity(entry, quad.polarity, lam)
     if isinstance(member, Rejection):
         return member
-    if member.layouts and p.layout_check_ratio > 0 and squeeze(quad) <= p.layout_check_ratio:
+    if member.layouts and shows_print(quad, p):
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is None:
-            return Rejection("verification", "oblique view: the detected triangles are not this tag's layout", lam)
+            detail = "oblique or small view: the detected triangles are not this tag's layout"
+            return Rejection("verification", detail, lam)
         member, minimal = printed
     clock.lap("identify")
     result = verify(member, pts, lines, minimal, corners, quad, table.margin, lam, p)
@@ -115,7 +116,7 @@ def _minimal(orderings: list[tuple[tuple[int, ...], NDArray[np.int8]]]) -> list[
     return [lab for lab, mat in orderings if mat.tobytes() == best_key]
 
 
-def _for_polarity(entry: LookupEntry, polarity: Polarity, lam: str) -> LookupEntry | Rejection:
+def for_polarity(entry: LookupEntry, polarity: Polarity, lam: str) -> LookupEntry | Rejection:
     """``entry`` with the tag number of ``polarity`` when it is a dictionary member (its
     ``extra["tags"]`` maps polarity → number), or the rejection when the member does not
     exist in that polarity."""
@@ -155,7 +156,7 @@ def _soft_decode(
         entry = catalogue.lookup.get(reading.lambda_text)
         if entry is None:
             continue
-        member = _for_polarity(entry, quad.polarity, reading.lambda_text)
+        member = for_polarity(entry, quad.polarity, reading.lambda_text)
         if isinstance(member, Rejection) or not member.realizations:
             continue
         if not confirms(pts, reading.flips, reading.minimal[0], member.realizations[0]):

@@ -82,6 +82,7 @@ StageName = Literal[
     "verify",
     "upsample",
     "rectify",
+    "model",
 ]
 STAGES: tuple[StageName, ...] = get_args(StageName)
 
@@ -113,7 +114,12 @@ class Detection:
     - ``corrected_flips``: None for a reading with ``margin_px >= min_margin_px``; for a
       soft-decoded one (margin below it, see :mod:`ottag_db.decode.soft`) the number of its
       near-collinear triples whose orientation was reversed to reach the ID (0: the reading
-      as measured, confirmed against every reversal).
+      as measured, confirmed against every reversal);
+    - ``model_correlation``: None for a reading of measured points; for a tag read by model
+      at a grazing view (:mod:`ottag_db.decode.model_match`: the stored tags projected through
+      the quad, the best aligned to the image) the correlation of the aligned tag with the
+      image. Its ``points`` are then the stored realization mapped by ``homography`` (not
+      measured one by one), and ``reprojection_error_px`` is None.
     """
 
     lambda_text: str
@@ -128,6 +134,7 @@ class Detection:
     reprojection_error_px: float | None
     margin_px: float
     corrected_flips: int | None = None
+    model_correlation: float | None = None
 
     @property
     def center(self) -> tuple[float, float]:
@@ -216,7 +223,12 @@ class DetectorParams:
       (0: never checked); at such views the points must also lie where the stored placement
       prints them (:mod:`~ottag_db.decode.placement_check`, in verification), which catches
       readings with lost vertices whose triangles do match. Head-on, tags drawn by other
-      programs (other triangles, another placement) still read.
+      programs (other triangles, another placement) still read;
+      ``print_check_side_px``: both checks also apply to data areas whose side
+      (``sqrt(area)``) is under this, px: at 21–24 px wide, 8-point tags with a vertex lost in
+      a blurred corner read as 6- or 7-point types at full margin (benchmarks/decode_sweeps.py,
+      6–7 m, issue 13); 0 turns this off (see
+      :func:`~ottag_db.decode.candidates.shows_print`).
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
     ``min_margin_px``:
@@ -232,6 +244,16 @@ class DetectorParams:
     - ``soft_min_fit_gap``: a candidate is accepted only when it alone verifies and its fit
       error is below every other candidate's, and below the reprojection bound, by at least
       this fraction of the bound (see the value's comment).
+
+    Reading by model (:mod:`ottag_db.decode.model_match`), the last resort for a foreshortened
+    candidate (``rectify_max_ratio``) that no reading decoded:
+
+    - ``model_match``: choose among the lookup's printed tags (stored realization, layout and
+      placement) by projecting each through the quad and aligning the best to the image;
+    - ``model_min_correlation``: the aligned tag's correlation with the image must reach this;
+    - ``model_min_gap``: … and exceed every other refined tag's by this;
+    - ``model_max_templates``: a lookup with more printed tags than this is not read by model
+      (the templates take ``4 · 32²`` bytes each, built with the detector).
 
     Raises :class:`~ottag_db.errors.UsageError` for invalid settings.
     """
@@ -259,6 +281,7 @@ class DetectorParams:
     rectify: bool = True
     rectify_max_ratio: float = 0.5
     layout_check_ratio: float = 0.5
+    print_check_side_px: float = 32.0
     soft_max_flips: int = 2
     soft_max_triples: int = 6
     #: 0.35 of the bound (0.53 px at the 1.5 px floor, 2–5 times the 0.1–0.3 px vertex noise).
@@ -268,6 +291,10 @@ class DetectorParams:
     #: that lost two vertices, read as 6 points, a lone candidate fitting at 0.71 of the bound);
     #: 0.35 keeps 202 of the 216 correct ones.
     soft_min_fit_gap: float = 0.35
+    model_match: bool = True
+    model_min_correlation: float = 0.8
+    model_min_gap: float = 0.08
+    model_max_templates: int = 20_000
 
     def __post_init__(self) -> None:
         pols: Any = self.polarities

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry
-from ottag_db.decode.candidates import squeeze
+from ottag_db.decode.candidates import shows_print
 from ottag_db.decode.placement_check import (
     PLACEMENT_BOUND_FACTOR,
     PLACEMENT_MAX_UNITS,
@@ -324,10 +324,9 @@ def assess(
         if not passing:
             detail = f"reprojection error {min(f.err for f in fits):.2f} px > {bound:.2f} px"
             return Assessment(Rejection("verification", detail, lambda_text), error, bound)
-        # Only at oblique views (where lost vertices fit other order types): a tag drawn by
-        # another program with its own placement still reads head-on.
-        oblique = p.layout_check_ratio > 0 and squeeze(quad) <= p.layout_check_ratio
-        if oblique and entry.placements and system is not None:  # (there are fits: system is not None)
+        # Only at oblique views and on small data areas (where lost vertices fit other order
+        # types): a tag drawn by another program with its own placement still reads head-on.
+        if shows_print(quad, p) and entry.placements and system is not None:  # (there are fits: system is not None)
             placed = _placed(entry, passing, system, corners, bound)
             if isinstance(placed, str):
                 return Assessment(Rejection("verification", placed, lambda_text), error, bound)

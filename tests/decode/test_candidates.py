@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 
 from ottag_db.decode import DetectorParams
-from ottag_db.decode.candidates import around_detection, clockwise, find_quads, same_quad, same_tag
+from ottag_db.decode.candidates import around_detection, clockwise, find_quads, same_quad, same_tag, shows_print
 from ottag_db.decode.types import Detection, Quad
 from tests.support import synthetic_tags as syn
 
@@ -55,3 +55,16 @@ def test_same_quad_same_tag_and_around_detection() -> None:
     frame = Quad("normal", (c - 50) * 2 + 50, 40000.0)  # the quiet zone's outline around the tag
     assert around_detection(frame, [det])
     assert not around_detection(Quad("normal", c * 0.5, 2500.0), [det])
+
+
+def test_readings_must_show_the_print_at_oblique_views_and_on_small_data_areas() -> None:
+    def square(side: float) -> Quad:
+        return Quad("normal", np.array([[0, 0], [side, 0], [side, side], [0, side]]), side * side)
+
+    thin = Quad("normal", np.array([[0, 0], [100, 0], [100, 20], [0, 20.0]]), 2000.0)
+    p = DetectorParams()
+    assert shows_print(thin, p)  # foreshortened to 0.2
+    assert shows_print(square(24.0), p)  # a tag at 6–7 m
+    assert not shows_print(square(40.0), p)  # head-on and large enough: other programs' tags read
+    assert not shows_print(square(24.0), replace(p, print_check_side_px=0.0))
+    assert not shows_print(thin, replace(p, layout_check_ratio=0.0))

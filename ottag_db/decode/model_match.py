@@ -1,0 +1,482 @@
+"""Model-based reading: the stored tags projected through the quad and scored against the image.
+
+At grazing views (beyond about 80°) a tag's triangles are slivers a pixel or two across: even
+the rectified view (:mod:`~ottag_db.decode.rectify`) cannot always segment them, and the
+points are too close to call. The quad still gives the homography from the data area to the
+image, and every tag the lookup holds is known in print (its stored realization, layout and
+placement), so the image can *choose among the stored tags* instead (issue 13, scope 1):
+
+1. **Coarse match.** Each printed tag is rasterized once into a ``T × T`` template of its data
+   area (:class:`TemplateBank`, built with the detector). The candidate's data area is warped
+   to the same grid in its four rotations (and, for a dark quad, as the quiet zone of an
+   inverted tag whose white data area was not found as a quad of its own); one matrix product
+   scores every template against every view by normalized correlation.
+2. **Refinement.** The best few tags (distinct IDs) are each aligned to the frame by OpenCV's
+   ECC (:func:`cv2.findTransformECC`, a homography from a finer template of the data area and
+   a band of its quiet zone), which also corrects the whole-pixel contour corners.
+3. **Decision.** The best aligned tag is accepted only when its correlation reaches
+   ``model_min_correlation`` *and* beats every other refined tag's by ``model_min_gap``; its
+   points are the stored realization mapped by the aligned homography, and their order type
+   must be the tag's own (a projective map that keeps orientation keeps it).
+
+The ID is still an order type: the image only chooses which stored one it shows, so a tag
+drawn with other triangles or another placement is not read this way. The detector runs this
+stage last, for a foreshortened candidate that no reading decoded (:func:`wants_model`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.canonical import lambda_text
+from ottag_db.core.lookup import LookupEntry, TagLookup
+from ottag_db.core.single_set import read_set
+from ottag_db.core.types import Polarity
+from ottag_db.decode.candidates import squeeze
+from ottag_db.decode.identify import for_polarity
+from ottag_db.decode.placement_check import apply_homography, square_homography
+from ottag_db.decode.profile import StageClock
+from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
+
+__all__ = [
+    "MODEL_CANDIDATES",
+    "MODEL_GRID",
+    "TemplateBank",
+    "read_model",
+    "template_bank",
+    "wants_model",
+]
+
+_F64 = NDArray[np.float64]
+_F32 = NDArray[np.float32]
+
+#: Side of the coarse templates, cells (the data area's side; ~1,000 cells tell the tags of the
+#: complete eight-point database apart while a frame's views are scored in a few ms).
+MODEL_GRID = 32
+#: Tags (distinct IDs) refined by ECC after the coarse match.
+MODEL_CANDIDATES = 3
+#: Side of the refinement templates, px, and the quiet-zone band they include (data-area
+#: units on each side; within the 0.25 quiet zone ``export`` prints).
+_FINE_GRID = 64
+_FINE_BAND = 0.12
+#: The refinement template's cells inside the data area (a cell's width off its edge).
+_FINE_INSIDE = slice(
+    math.ceil(_FINE_BAND / (1 + 2 * _FINE_BAND) * _FINE_GRID) + 1,
+    math.floor((1 + _FINE_BAND) / (1 + 2 * _FINE_BAND) * _FINE_GRID) - 1,
+)
+#: Supersampling of the coarse templates (the fine ones use :func:`rasterize`'s default, 4): a
+#: quarter of the work when the bank is built, and coarse cells are compared unaligned anyway.
+_COARSE_SUPERSAMPLING = 2
+#: Templates drawn per canvas when the bank is built (a square mosaic of tiles).
+_MOSAIC_TILES = 16
+#: The quiet zone assumed when a dark quad is read as an inverted tag's quiet zone (data-area
+#: units, :data:`~ottag_db.printing.geometry.DEFAULT_QUIET_ZONE_RATIO`; ECC corrects a mismatch).
+_INVERTED_QUIET = 0.25
+#: A coarse score below this cannot become a detection: the candidate is not refined.
+_MIN_COARSE = 0.35
+_ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
+
+#: The unit square's corners in tag order (top-left, top-right, bottom-right, bottom-left).
+_UNIT_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class TemplateBank:
+    """Every printed tag of a lookup as a coarse template of its data area.
+
+    Attributes
+    ----------
+    entries : tuple of LookupEntry
+        ``entries[i]``: the lookup entry of template ``i``.
+    realization : numpy.ndarray
+        ``(N,)`` intp, index of the template's realization in its entry.
+    triangles : tuple of numpy.ndarray
+        ``triangles[i]``: ``(t, 3, 2)`` the printed triangles in data-area units (x right,
+        y down, the data area is [0, 1]²).
+    coarse : numpy.ndarray
+        ``(N, MODEL_GRID²)`` float32, each row the template (triangles bright) minus its mean,
+        divided by its norm: a dot product with a view normalized alike is their correlation.
+    """
+
+    entries: tuple[LookupEntry, ...]
+    realization: NDArray[np.intp]
+    triangles: tuple[_F64, ...]
+    coarse: _F32
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+
+def template_bank(lookup: TagLookup, max_templates: int) -> TemplateBank | None:
+    """Rasterize every printed tag of ``lookup`` (each realization with a layout and placement).
+
+    Parameters
+    ----------
+    lookup : TagLookup
+        The detector's lookup; it must be iterable (as :class:`~ottag_db.core.lookup.MemoryLookup`
+        is) for its tags to be listed.
+    max_templates : int
+        Bound on the number of templates (memory: ``4 · MODEL_GRID²`` bytes each).
+
+    Returns
+    -------
+    TemplateBank or None
+        None when the lookup cannot be listed, knows no printed tag (e.g. a portable
+        dictionary file without layouts), or holds more than ``max_templates`` of them.
+    """
+    if not isinstance(lookup, Iterable):
+        return None
+    entries: list[LookupEntry] = []
+    rows: list[int] = []
+    groups: dict[tuple[int, int], list[int]] = {}  # (points, triangles) → template indices
+    for entry in lookup:
+        if not isinstance(entry, LookupEntry) or not entry.layouts or not entry.placements:
+            continue
+        for r, (layout, place) in enumerate(zip(entry.layouts, entry.placements, strict=False)):
+            if not layout or place is None:
+                continue
+            if len(entries) >= max_templates:
+                return None
+            groups.setdefault((entry.k, len(layout)), []).append(len(entries))
+            entries.append(entry)
+            rows.append(r)
+    if not entries:
+        return None
+    coarse = np.empty((len(entries), MODEL_GRID * MODEL_GRID), dtype=np.float32)
+    triangles: list[_F64] = [np.empty((0, 3, 2))] * len(entries)
+    for members in groups.values():
+        # one batch per shape: placed points (n, k, 2), then the layout's triangles (n, t, 3, 2)
+        real = np.stack([entries[i].realizations[rows[i]] for i in members])
+        place = np.stack([_placement(entries[i], rows[i]) for i in members])
+        labels = np.asarray([entries[i].layouts[rows[i]] for i in members], dtype=np.intp)
+        unit = np.einsum("nkj,nij->nki", real, place[:, :, :2]) + place[:, None, :, 2]
+        tris = unit[np.arange(len(members))[:, None, None], labels]
+        coarse[members] = rasterize(tris, 0.0, 1.0, MODEL_GRID, _COARSE_SUPERSAMPLING).reshape(len(members), -1)
+        for j, i in enumerate(members):
+            triangles[i] = tris[j]
+    return TemplateBank(tuple(entries), np.asarray(rows, dtype=np.intp), tuple(triangles), _normalized(coarse))
+
+
+def _placement(entry: LookupEntry, r: int) -> _F64:
+    """The stored placement of realization ``r`` (the bank holds only placed realizations)."""
+    place = entry.placements[r]
+    if place is None:
+        raise ValueError(f"{entry.lambda_text}: realization {r} has no placement")
+    return place
+
+
+def rasterize(polygons: _F64, lo: float, hi: float, size: int, supersampling: int = 4) -> _F32:
+    """Area coverage of polygon sets on a square grid, many at once.
+
+    Parameters
+    ----------
+    polygons : numpy.ndarray
+        ``(n, m, v, 2)``: image ``i`` is the ``m`` polygons of ``v`` vertices ``polygons[i]``
+        (coordinates in the window's units; polygons of one image must not overlap).
+    lo, hi : float
+        The window ``[lo, hi]²`` the grid covers.
+    size : int
+        Grid side, cells.
+    supersampling : int
+        Polygons are filled at this many times the grid's resolution, then area-averaged.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, size, size)`` float32 in [0, 1]: the covered fraction of each cell (row = y),
+        to a supersampled pixel (OpenCV fills the pixels an edge passes through).
+    """
+    n, m, v = polygons.shape[:3]
+    tile = size * supersampling
+    out = np.empty((n, size, size), dtype=np.float32)
+    per = _MOSAIC_TILES * _MOSAIC_TILES
+    scale = tile / (hi - lo)
+    for start in range(0, n, per):
+        chunk = polygons[start : start + per]
+        c = len(chunk)
+        cols = min(c, _MOSAIC_TILES)
+        nrows = -(-c // cols)
+        canvas = np.zeros((nrows * tile, cols * tile), dtype=np.uint8)
+        j = np.arange(c)
+        offset = np.stack([(j % cols) * tile, (j // cols) * tile], axis=1).astype(np.float64)
+        # pixel p of a tile covers [p, p + 1) / scale + lo: its centre is at p + 0.5
+        px = (chunk - lo) * scale - 0.5 + offset[:, None, None, :]
+        cv2.fillPoly(canvas, list(np.round(px * 16).astype(np.int32).reshape(c * m, v, 1, 2)), 255, cv2.LINE_8, 4)
+        small = cv2.resize(canvas, (cols * size, nrows * size), interpolation=cv2.INTER_AREA)
+        tiles = np.asarray(small, dtype=np.float32).reshape(nrows, size, cols, size).transpose(0, 2, 1, 3)
+        out[start : start + c] = tiles.reshape(-1, size, size)[:c] / 255.0
+    return out
+
+
+def _normalized(rows: NDArray[np.floating]) -> _F32:
+    """Rows minus their mean, divided by their norm (a zero row stays zero)."""
+    x = np.asarray(rows, dtype=np.float32)
+    x = x - x.mean(axis=1, keepdims=True)
+    norm = np.sqrt(np.einsum("ij,ij->i", x, x))[:, None]
+    out: _F32 = x / np.maximum(norm, np.float32(1e-6))
+    return out
+
+
+def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams) -> bool:
+    """Whether a candidate no reading decoded is read by model (see the module docstring).
+
+    Parameters
+    ----------
+    quad : Quad
+        The candidate.
+    first : Rejection
+        Its rejection after every other reading.
+    retry_reasons : frozenset of str
+        Reasons given after the quad was read (the detector's retry set); ``"no_triangles"``
+        too.
+    params : DetectorParams
+        ``model_match`` (False turns the stage off); only quads foreshortened to at most
+        ``rectify_max_ratio`` are read by model.
+
+    Returns
+    -------
+    bool
+    """
+    return (
+        params.model_match
+        and (first.reason in retry_reasons or first.reason == "no_triangles")
+        and squeeze(quad) <= params.rectify_max_ratio
+    )
+
+
+@dataclass(frozen=True)
+class _View:
+    """One interpretation of a candidate: data-area corners in tag order and the polarity."""
+
+    corners: _F64
+    polarity: Polarity
+
+
+@dataclass(frozen=True)
+class _Aligned:
+    """A refined candidate: template row, view, homography data-area units → frame, and the
+    correlation of the aligned template with the frame inside the data area."""
+
+    row: int
+    view: _View
+    to_frame: _F64
+    correlation: float
+
+
+def _views(quad: Quad, params: DetectorParams) -> list[_View]:
+    """The candidate's readings as a data area: its four rotations in its polarity, and for a
+    dark quad also the four of the white data area inside it, as an inverted tag's quiet zone."""
+    views = [_View(np.roll(quad.corners, -r, axis=0), quad.polarity) for r in range(4)]
+    if quad.polarity == "normal" and "inverted" in params.polarities:
+        outer = square_homography(quad.corners)
+        if outer is not None:
+            q = _INVERTED_QUIET / (1 + 2 * _INVERTED_QUIET)
+            inner = apply_homography(outer, q + (1 - 2 * q) * _UNIT_SQUARE)
+            if np.isfinite(inner).all():
+                views += [_View(np.roll(inner, -r, axis=0), "inverted") for r in range(4)]
+    return [v for v in views if v.polarity in params.polarities]
+
+
+def _sample(gray: NDArray[np.uint8], to_frame: _F64, lo: float, hi: float, size: int) -> _F32 | None:
+    """The frame over the window ``[lo, hi]²`` of the data area, ``size²`` cells, area-averaged
+    from a 4× finer bilinear warp. None when the map is degenerate."""
+    fine = size * 4
+    step = (hi - lo) / fine
+    cell_to_unit = np.array([[step, 0, lo + step / 2], [0, step, lo + step / 2], [0, 0, 1.0]])
+    m = to_frame @ cell_to_unit
+    if not np.isfinite(m).all():
+        return None
+    warped = cv2.warpPerspective(
+        gray, m, (fine, fine), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+    )
+    return np.asarray(cv2.resize(warped, (size, size), interpolation=cv2.INTER_AREA), dtype=np.float32)
+
+
+def _fine_template(triangles: _F64, polarity: Polarity) -> _F32:
+    """The refinement template: data area with its triangles and a band of quiet zone, 0 … 1,
+    bright where the print is bright."""
+    b = _FINE_BAND
+    ring = np.array(
+        [
+            [[-b, -b], [1 + b, -b], [1 + b, 0], [-b, 0]],
+            [[-b, 1], [1 + b, 1], [1 + b, 1 + b], [-b, 1 + b]],
+            [[-b, 0], [0, 0], [0, 1], [-b, 1]],
+            [[1, 0], [1 + b, 0], [1 + b, 1], [1, 1]],
+        ]
+    )
+    img = rasterize(triangles[None], -b, 1 + b, _FINE_GRID)[0] + rasterize(ring[None], -b, 1 + b, _FINE_GRID)[0]
+    out: _F32 = img if polarity == "normal" else 1.0 - img
+    return out
+
+
+def _align(gray: _F32, bank: TemplateBank, row: int, view: _View) -> _Aligned | None:
+    """ECC alignment of template ``row`` to the frame (float32, as ECC needs both alike) from the
+    view's corners; None when ECC fails."""
+    start = square_homography(view.corners)
+    if start is None:
+        return None
+    b = _FINE_BAND
+    step = (1 + 2 * b) / _FINE_GRID
+    px_to_unit = np.array([[step, 0, -b + step / 2], [0, step, -b + step / 2], [0, 0, 1.0]])
+    warp = (start @ px_to_unit).astype(np.float32)
+    template = _fine_template(bank.triangles[row], view.polarity)
+    try:
+        # no mask, no extra smoothing (gaussFiltSize 1); the stubs do not list a None mask
+        rho, warp = cv2.findTransformECC(  # type: ignore[call-overload]
+            template, gray, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, None, 1
+        )
+    except cv2.error:
+        return None  # ECC did not converge (or the warp became singular)
+    to_frame = np.asarray(warp, dtype=np.float64) @ np.linalg.inv(px_to_unit)
+    to_frame /= to_frame[2, 2]
+    if not np.isfinite(to_frame).all() or not math.isfinite(rho):
+        return None
+    # judged inside the data area only: the quiet band that anchors the alignment looks the
+    # same for every tag and would lift every candidate's score alike
+    seen = cv2.warpPerspective(
+        gray, warp, template.shape[::-1], flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+    )
+    inside = _FINE_INSIDE
+    pair = _normalized(np.stack([template[inside, inside].ravel(), np.asarray(seen)[inside, inside].ravel()]))
+    return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]))
+
+
+def read_model(
+    gray: NDArray[np.uint8],
+    quad: Quad,
+    first: Rejection,
+    bank: TemplateBank,
+    params: DetectorParams,
+    clock: StageClock,
+) -> Detection | Rejection:
+    """Read a candidate by choosing among the stored tags (see the module docstring).
+
+    Parameters
+    ----------
+    gray : numpy.ndarray
+        ``(H, W)`` uint8 frame.
+    quad : Quad
+        The candidate (frame pixels).
+    first : Rejection
+        Its rejection after every other reading (returned, with the model's finding in its
+        detail, when this one fails).
+    bank : TemplateBank
+        The lookup's printed tags.
+    params : DetectorParams
+        ``model_min_correlation``, ``model_min_gap``, ``polarities``.
+    clock : StageClock
+        Charged as ``"model"``.
+
+    Returns
+    -------
+    Detection or Rejection
+        A detection with ``model_correlation`` set, points the stored realization mapped by
+        the aligned homography (frame pixels, canonical label order); else ``first``.
+    """
+    views = _views(quad, params)
+    samples: list[_F32] = []
+    kept: list[_View] = []
+    for view in views:
+        to_frame = square_homography(view.corners)
+        s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
+        if s is not None:
+            samples.append(s.ravel() if view.polarity == "normal" else -s.ravel())
+            kept.append(view)
+    if not kept:
+        clock.lap("model")
+        return first
+    scores = bank.coarse @ _normalized(np.stack(samples)).T  # (templates, views)
+    chosen: list[tuple[int, _View, float]] = []
+    # the best tags of each reading of the quad (its own polarity; the inverted tag inside a
+    # dark quad), so that one reading's many near-misses cannot crowd out the other's match
+    for group in ("normal", "inverted"):
+        cols = [i for i, v in enumerate(kept) if v.polarity == group]
+        if cols:
+            chosen += _best_tags(bank, scores[:, cols], [kept[i] for i in cols])
+    frame = np.asarray(gray, dtype=np.float32)
+    aligned: list[_Aligned] = []
+    unaligned: list[float] = []  # coarse scores of candidates ECC could not align
+    for row, view, coarse in chosen:
+        a = _align(frame, bank, row, view)
+        if a is None:
+            unaligned.append(coarse)
+        else:
+            aligned.append(a)
+    clock.lap("model")
+    if not aligned:
+        return first
+    aligned.sort(key=lambda a: -a.correlation)
+    top = aligned[0]
+    # the next best reading of another tag (ID or polarity); a candidate ECC lost counts with
+    # its coarse score, so that a failed alignment cannot make the winner look unrivalled
+    key = (bank.entries[top.row].lambda_text, top.view.polarity)
+    rivals = [a.correlation for a in aligned if (bank.entries[a.row].lambda_text, a.view.polarity) != key]
+    runner_up = max(rivals + unaligned, default=-1.0)
+    note = f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}".lstrip("; ")
+    if top.correlation < params.model_min_correlation or top.correlation - runner_up < params.model_min_gap:
+        return Rejection(first.reason, note, first.lambda_text, first.decomposed)
+    result = _detection(bank, top, quad)
+    clock.lap("model")
+    return result if isinstance(result, Detection) else Rejection(first.reason, note, first.lambda_text)
+
+
+def _best_tags(bank: TemplateBank, scores: _F32, views: list[_View]) -> list[tuple[int, _View, float]]:
+    """The ``MODEL_CANDIDATES`` templates of distinct IDs with the highest coarse score over
+    ``views`` (columns of ``scores``), each with its best view and that score; none below
+    ``_MIN_COARSE``."""
+    best_view = scores.argmax(axis=1)
+    best = scores[np.arange(len(bank)), best_view]
+    chosen: list[tuple[int, _View, float]] = []
+    seen: set[str] = set()
+    for row in np.argsort(-best)[: 8 * MODEL_CANDIDATES].tolist():
+        lam = bank.entries[row].lambda_text
+        if best[row] < _MIN_COARSE or lam in seen:
+            continue
+        seen.add(lam)
+        chosen.append((row, views[int(best_view[row])], float(best[row])))
+        if len(chosen) == MODEL_CANDIDATES:
+            break
+    return chosen
+
+
+def _detection(bank: TemplateBank, top: _Aligned, quad: Quad) -> Detection | Rejection:
+    """The detection of an accepted alignment: the stored points mapped into the frame."""
+    entry = bank.entries[top.row]
+    r = int(bank.realization[top.row])
+    real = entry.realizations[r]
+    place = _placement(entry, r)
+    unit = real @ place[:, :2].T + place[:, 2]
+    points = apply_homography(top.to_frame, unit)
+    corners = apply_homography(top.to_frame, _UNIT_SQUARE)
+    if not (np.isfinite(points).all() and np.isfinite(corners).all()):
+        return Rejection("verification", "by model: the aligned homography is degenerate")
+    table, orderings = read_set(points)
+    lam = entry.lambda_text
+    # a projective map that keeps orientation keeps the order type: anything else is a bad alignment
+    if not table.margin > 0 or lambda_text(orderings[0][1]) != lam:
+        return Rejection("verification", "by model: the aligned points do not keep the tag's order type", lam)
+    member = for_polarity(entry, top.view.polarity, lam)
+    if isinstance(member, Rejection):
+        return member
+    hom = top.to_frame @ np.vstack([place, [0.0, 0.0, 1.0]])
+    hom /= hom[2, 2]
+    return Detection(
+        lam,
+        entry.k,
+        member.order_type_id,
+        member.tag,
+        top.view.polarity,
+        points,
+        real.copy() if entry.unique_min else None,
+        corners,
+        hom,
+        None,
+        float(table.margin),
+        model_correlation=top.correlation,
+    )

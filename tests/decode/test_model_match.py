@@ -1,0 +1,120 @@
+"""Reading by model: the printed tags projected through a grazing quad, the best aligned to the image."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ottag_db.core.canonical import canonical_lambda
+from ottag_db.core.lookup import LookupEntry, MemoryLookup
+from ottag_db.decode import Detector, DetectorParams
+from ottag_db.decode.candidates import HALF_RES_MIN_SIDE, find_quads
+from ottag_db.decode.model_match import MODEL_GRID, rasterize, template_bank, wants_model
+from ottag_db.decode.placement_check import apply_homography
+from ottag_db.decode.types import Quad, Rejection
+from ottag_db.printing.scenes import DrawableTag
+from tests.support.grazing import grazing_frame, grazing_set, printed_tags
+
+_REASONS = frozenset({"non_triangle", "point_count", "low_margin", "verification"})
+
+
+@pytest.fixture(scope="module")
+def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
+    return printed_tags(bundled_db_path)
+
+
+def test_rasterize_gives_the_covered_fraction_of_each_cell() -> None:
+    half = np.array([[[0.0, 0.0], [1.0, 0.0], [1.0, 0.5], [0.0, 0.5]]])  # the upper half
+    tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])
+    tri4 = np.pad(tri, ((0, 0), (0, 1), (0, 0)), mode="edge")  # 4 vertices, like the half
+    img = rasterize(np.stack([half, tri4] * 200), 0.0, 1.0, 8)  # more than one mosaic canvas
+    assert img.shape == (400, 8, 8)
+    np.testing.assert_allclose(img[0, :4], 1.0)
+    np.testing.assert_allclose(img[0, 5:], 0.0)
+    assert img[0, 4].max() <= 0.26  # an edge on supersampled pixel centres fills that row
+    assert img[1].mean() == pytest.approx(0.5, abs=0.06)  # its diagonal fills half a pixel more
+    np.testing.assert_array_equal(img[398], img[0])
+    np.testing.assert_array_equal(img[399], img[1])
+
+
+def test_the_bank_holds_every_printed_tag_normalized(printed) -> None:
+    lookup, _ = printed
+    bank = template_bank(lookup, 100_000)
+    assert bank is not None
+    placed = sum(
+        1 for e in lookup for lay, place in zip(e.layouts, e.placements, strict=False) if lay and place is not None
+    )
+    assert len(bank) == placed > 6000
+    assert bank.coarse.shape == (placed, MODEL_GRID * MODEL_GRID)
+    np.testing.assert_allclose(np.linalg.norm(bank.coarse, axis=1), 1.0, atol=1e-4)
+    np.testing.assert_allclose(bank.coarse.mean(axis=1), 0.0, atol=1e-5)
+    assert template_bank(lookup, 100) is None  # too many for the bound
+    bare = MemoryLookup(LookupEntry(e.lambda_text, e.k, e.order_type_id, e.unique_min, e.realizations) for e in lookup)
+    assert template_bank(bare, 100_000) is None  # no layouts or placements: nothing printed
+
+
+def test_which_candidates_are_read_by_model() -> None:
+    thin = Quad("normal", np.array([[0, 0], [100, 0], [100, 20], [0, 20.0]]), 2000.0)
+    square = Quad("normal", np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]]), 10000.0)
+    p = DetectorParams()
+    assert wants_model(thin, Rejection("point_count"), _REASONS, p)
+    assert wants_model(thin, Rejection("no_triangles"), _REASONS, p)
+    assert not wants_model(square, Rejection("point_count"), _REASONS, p)
+    assert not wants_model(thin, Rejection("low_contrast"), _REASONS, p)
+    assert not wants_model(thin, Rejection("point_count"), _REASONS, DetectorParams(model_match=False))
+
+
+def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
+    """The grazing set (80–86°, both polarities): zero wrong IDs, and reading by model adds
+    reads (measured 24/28 with it, 11/28 without; issue 13 asks ≥ 97 %, not reached: the four
+    frames left are at 86°, data areas 7 px across)."""
+    lookup, tags = printed
+    full = Detector(lookup)
+    without = Detector(lookup, DetectorParams(model_match=False))
+    n = ok = ok_without = wrong = by_model = 0
+    for seed, tilt, pol in grazing_set():
+        tag, image = grazing_frame(tags, seed, tilt, pol)
+        n += 1
+        dets = full.detect(image)
+        ok += any(d.lambda_text == tag.lambda_text for d in dets)
+        wrong += sum(d.lambda_text != tag.lambda_text for d in dets)
+        by_model += sum(d.model_correlation is not None for d in dets)
+        ok_without += any(d.lambda_text == tag.lambda_text for d in without.detect(image))
+    with capsys.disabled():
+        print(f"\ngrazing 80–86°: {ok}/{n} ({by_model} by model), without reading by model {ok_without}/{n}")
+    assert wrong == 0
+    assert ok >= 23 and ok >= ok_without + 10
+
+
+def test_a_model_reading_maps_the_stored_tag_onto_the_image(printed) -> None:
+    lookup, tags = printed
+    found = []
+    for seed in range(40):
+        tag, image = grazing_frame(tags, seed, 83.0)
+        found += [(tag, d) for d in Detector(lookup).detect(image) if d.model_correlation is not None]
+        if found:
+            break
+    assert found, "no frame of 40 at 83° read by model"
+    tag, det = found[0]
+    assert det.lambda_text == tag.lambda_text
+    assert det.reprojection_error_px is None and det.homography is not None
+    entry = lookup.get(det.lambda_text)
+    assert entry is not None and det.order_type_id == entry.order_type_id
+    # the points are the stored realization mapped by the homography, and keep its order type
+    real = next(r for r in entry.realizations if det.model_points is None or np.array_equal(r, det.model_points))
+    np.testing.assert_allclose(apply_homography(det.homography, real), det.points, atol=1e-6)
+    assert canonical_lambda(det.points) == det.lambda_text
+    assert det.margin_px > 0 and 0.8 <= (det.model_correlation or 0) <= 1.0
+
+
+def test_thin_quads_are_found_at_full_resolution(printed) -> None:
+    """At 85° the data area is a sliver 5–8 px across: the half-resolution pass misses it, the
+    full-resolution pass for thin quads finds it (and only thin quads)."""
+    _, tags = printed
+    _, image = grazing_frame(tags, 109, 85.0)
+    p = DetectorParams()
+    assert find_quads(image, "adaptive", p) == []
+    thin = find_quads(image, "adaptive_thin", p)
+    assert len(thin) == 1 and thin[0].area < 2 * HALF_RES_MIN_SIDE * 100.0
+    _, head_on = grazing_frame(tags, 109, 10.0)
+    assert find_quads(head_on, "adaptive", p) and find_quads(head_on, "adaptive_thin", p) == []
