@@ -21,6 +21,7 @@ __all__ = [
     "searches_at_half_resolution",
     "shows_print",
     "squeeze",
+    "within_detection",
 ]
 
 _F64 = NDArray[np.float64]
@@ -208,6 +209,30 @@ def around_detection(quad: Quad, detections: list[Detection]) -> bool:
             dx, dy = _centre(d.corners.tolist())
             if math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) < reach:
                 return True
+    return False
+
+
+def within_detection(quad: Quad, detections: list[Detection]) -> bool:
+    """True when the centre of ``quad`` lies on a decoded tag: inside its data area grown by the
+    quiet zone ``export`` prints (0.25 of the side each way, so 1.5 × about its centre).
+
+    Reading by model runs after a pass's other readings and skips such candidates: pieces of a
+    decoded tag (a triangle's outline, a slit) are not other tags.
+    """
+    if not detections:
+        return False
+    px, py = _centre(quad.corners.tolist())
+    for d in detections:
+        corners = d.corners.tolist()
+        cx, cy = _centre(corners)
+        grown = [(cx + 1.5 * (x - cx), cy + 1.5 * (y - cy)) for x, y in corners]
+        # inside a convex polygon: the same side of every edge
+        signs = [
+            (bx - ax) * (py - ay) - (by - ay) * (px - ax)
+            for (ax, ay), (bx, by) in zip(grown, grown[1:] + grown[:1], strict=True)
+        ]
+        if all(s >= 0 for s in signs) or all(s <= 0 for s in signs):
+            return True
     return False
 
 

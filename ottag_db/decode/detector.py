@@ -32,6 +32,7 @@ from ottag_db.decode.candidates import (
     same_quad,
     same_tag,
     searches_at_half_resolution,
+    within_detection,
 )
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
@@ -192,6 +193,7 @@ class Detector:
             quads = [q for q in find_quads(gray, kind, p) if not any(same_quad(q, o) for o in seen)]
             seen.extend(quads)
             clock.lap("candidates")
+            by_model: list[tuple[Quad, Rejection]] = []  # read by model after the pass
             for quad in sorted(quads, key=lambda q: q.area):
                 skip = around_detection(quad, detections)
                 clock.lap("candidates")
@@ -202,9 +204,17 @@ class Detector:
                     result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                 if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
                     result = read_rectified(gray, quad, result, self._catalogue, clock)
-                bank = self._bank
-                if isinstance(result, Rejection) and bank and wants_model(quad, result, _RETRY_UPSAMPLED, p):
-                    result = read_model(gray, quad, result, bank, p, clock)
+                if isinstance(result, Rejection) and self._bank and wants_model(quad, result, _RETRY_UPSAMPLED, p):
+                    by_model.append((quad, result))
+                elif isinstance(result, Rejection):
+                    rejected.append(result.at(quad))
+                elif not any(same_tag(result, d) for d in detections):
+                    detections.append(result)
+            # last, and only off the tags this pass decoded (pieces of a tag are not tags)
+            for quad, first in by_model:
+                result = first
+                if self._bank and not within_detection(quad, detections):
+                    result = read_model(gray, quad, first, self._bank, p, clock)
                 if isinstance(result, Rejection):
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):

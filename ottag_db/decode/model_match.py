@@ -63,7 +63,7 @@ MODEL_GRID = 32
 MODEL_CANDIDATES = 3
 #: Side of the refinement templates, px, and the quiet-zone band they include (data-area
 #: units on each side; within the 0.25 quiet zone ``export`` prints).
-_FINE_GRID = 64
+_FINE_GRID = 48
 _FINE_BAND = 0.12
 #: The refinement template's cells inside the data area (a cell's width off its edge).
 _FINE_INSIDE = slice(
@@ -80,6 +80,7 @@ _MOSAIC_TILES = 16
 _INVERTED_QUIET = 0.25
 #: A coarse score below this cannot become a detection: the candidate is not refined.
 _MIN_COARSE = 0.35
+_ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
 
 #: The unit square's corners in tag order (top-left, top-right, bottom-right, bottom-left).
@@ -315,32 +316,49 @@ def _fine_template(triangles: _F64, polarity: Polarity) -> _F32:
     return out
 
 
-def _align(gray: _F32, bank: TemplateBank, row: int, view: _View) -> _Aligned | None:
-    """ECC alignment of template ``row`` to the frame (float32, as ECC needs both alike) from the
-    view's corners; None when ECC fails."""
+def _neighbourhood(gray: NDArray[np.uint8], corners: list[_F64]) -> tuple[_F32, _F64]:
+    """The part of the frame around data areas with these corners (and twice their quiet band),
+    as float32 (ECC needs the template's type), and the frame position of its pixel (0, 0)."""
+    h, w = gray.shape
+    if not corners:
+        return np.zeros((0, 0), dtype=np.float32), np.zeros(2)
+    pts = np.concatenate(corners)
+    centre = pts.mean(axis=0)
+    reach = 1 + 4 * _FINE_BAND  # the band on both sides, with room for the alignment to move
+    lo = np.floor(centre + (pts.min(axis=0) - centre) * reach) - 2
+    hi = np.ceil(centre + (pts.max(axis=0) - centre) * reach) + 3
+    x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+    x1, y1 = min(int(hi[0]), w), min(int(hi[1]), h)
+    return np.asarray(gray[y0:y1, x0:x1], dtype=np.float32), np.array([x0, y0], dtype=np.float64)
+
+
+def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -> _Aligned | None:
+    """ECC alignment of template ``row`` to the frame from the view's corners; ``roi`` is the
+    frame around the quad, its pixel (0, 0) at frame position ``origin``. None when ECC fails."""
     start = square_homography(view.corners)
-    if start is None:
+    if start is None or roi.shape[0] < 4 or roi.shape[1] < 4:
         return None
     b = _FINE_BAND
     step = (1 + 2 * b) / _FINE_GRID
     px_to_unit = np.array([[step, 0, -b + step / 2], [0, step, -b + step / 2], [0, 0, 1.0]])
-    warp = (start @ px_to_unit).astype(np.float32)
+    to_roi = np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
+    warp = (to_roi @ start @ px_to_unit).astype(np.float32)
     template = _fine_template(bank.triangles[row], view.polarity)
     try:
-        # no mask, no extra smoothing (gaussFiltSize 1); the stubs do not list a None mask
+        # no mask (the stubs do not list a None mask)
         rho, warp = cv2.findTransformECC(  # type: ignore[call-overload]
-            template, gray, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, None, 1
+            template, roi, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, None, _ECC_SMOOTHING
         )
     except cv2.error:
         return None  # ECC did not converge (or the warp became singular)
-    to_frame = np.asarray(warp, dtype=np.float64) @ np.linalg.inv(px_to_unit)
+    to_frame = np.linalg.inv(to_roi) @ np.asarray(warp, dtype=np.float64) @ np.linalg.inv(px_to_unit)
     to_frame /= to_frame[2, 2]
     if not np.isfinite(to_frame).all() or not math.isfinite(rho):
         return None
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
     seen = cv2.warpPerspective(
-        gray, warp, template.shape[::-1], flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+        roi, warp, template.shape[::-1], flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
     )
     inside = _FINE_INSIDE
     pair = _normalized(np.stack([template[inside, inside].ravel(), np.asarray(seen)[inside, inside].ravel()]))
@@ -399,11 +417,12 @@ def read_model(
         cols = [i for i, v in enumerate(kept) if v.polarity == group]
         if cols:
             chosen += _best_tags(bank, scores[:, cols], [kept[i] for i in cols])
-    frame = np.asarray(gray, dtype=np.float32)
+    # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
+    roi, origin = _neighbourhood(gray, [view.corners for _, view, _ in chosen])
     aligned: list[_Aligned] = []
     unaligned: list[float] = []  # coarse scores of candidates ECC could not align
     for row, view, coarse in chosen:
-        a = _align(frame, bank, row, view)
+        a = _align(roi, origin, bank, row, view)
         if a is None:
             unaligned.append(coarse)
         else:

@@ -191,8 +191,8 @@ def scaled_params(p: DetectorParams, f: float, *, identification: bool = True) -
     f : float
         Scale of the image the stages run on.
     identification : bool, optional
-        Also scale the margin and the reprojection bound (False when the points are mapped back
-        and identified in frame pixels, as in the rectified view).
+        Also scale the margin, the reprojection bound and ``print_check_side_px`` (False when
+        the points are mapped back and identified in frame pixels, as in the rectified view).
 
     Returns
     -------
@@ -208,4 +208,9 @@ def scaled_params(p: DetectorParams, f: float, *, identification: bool = True) -
     )
     if not identification:
         return scaled
-    return replace(scaled, min_margin_px=p.min_margin_px * f, max_reproj_px=p.max_reproj_px * f)
+    return replace(
+        scaled,
+        min_margin_px=p.min_margin_px * f,
+        max_reproj_px=p.max_reproj_px * f,
+        print_check_side_px=p.print_check_side_px * f,  # judged on the scaled quad
+    )
