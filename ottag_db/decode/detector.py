@@ -36,10 +36,11 @@ from ottag_db.decode.candidates import (
 )
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
-from ottag_db.decode.model_match import read_model, template_bank, wants_model
+from ottag_db.decode.model_match import read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
+from ottag_db.decode.templates import template_bank
 from ottag_db.decode.types import (
     Detection,
     DetectionReport,

@@ -7,7 +7,7 @@ image, and every tag the lookup holds is known in print (its stored realization,
 placement), so the image can *choose among the stored tags* instead (issue 13, scope 1):
 
 1. **Coarse match.** Each printed tag is rasterized once into a ``T × T`` template of its data
-   area (:class:`TemplateBank`, built with the detector). The candidate's data area is warped
+   area (:class:`~ottag_db.decode.templates.TemplateBank`, built with the detector). The candidate's data area is warped
    to the same grid in its four rotations (and, for a dark quad, as the quiet zone of an
    inverted tag whose white data area was not found as a quad of its own); one matrix product
    scores every template against every view by normalized correlation.
@@ -27,7 +27,6 @@ stage last, for a foreshortened candidate that no reading decoded (:func:`wants_
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import cv2
@@ -35,30 +34,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.canonical import lambda_text
-from ottag_db.core.lookup import LookupEntry, TagLookup
 from ottag_db.core.single_set import read_set
 from ottag_db.core.types import Polarity
 from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.placement_check import apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.templates import MODEL_GRID, TemplateBank, normalized_rows, placement, rasterize
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
-__all__ = [
-    "MODEL_CANDIDATES",
-    "MODEL_GRID",
-    "TemplateBank",
-    "read_model",
-    "template_bank",
-    "wants_model",
-]
+__all__ = ["MODEL_CANDIDATES", "misfit_allowance", "read_model", "wants_model"]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
 
-#: Side of the coarse templates, cells (the data area's side; ~1,000 cells tell the tags of the
-#: complete eight-point database apart while a frame's views are scored in a few ms).
-MODEL_GRID = 32
 #: Tags (distinct IDs) refined by ECC after the coarse match.
 MODEL_CANDIDATES = 3
 #: Side of the refinement templates, px, and the quiet-zone band they include (data-area
@@ -70,158 +59,22 @@ _FINE_INSIDE = slice(
     math.ceil(_FINE_BAND / (1 + 2 * _FINE_BAND) * _FINE_GRID) + 1,
     math.floor((1 + _FINE_BAND) / (1 + 2 * _FINE_BAND) * _FINE_GRID) - 1,
 )
-#: Supersampling of the coarse templates (the fine ones use :func:`rasterize`'s default, 4): a
-#: quarter of the work when the bank is built, and coarse cells are compared unaligned anyway.
-_COARSE_SUPERSAMPLING = 2
-#: Templates drawn per canvas when the bank is built (a square mosaic of tiles).
-_MOSAIC_TILES = 16
 #: The quiet zone assumed when a dark quad is read as an inverted tag's quiet zone (data-area
 #: units, :data:`~ottag_db.printing.geometry.DEFAULT_QUIET_ZONE_RATIO`; ECC corrects a mismatch).
 _INVERTED_QUIET = 0.25
 #: A coarse score below this cannot become a detection: the candidate is not refined.
 _MIN_COARSE = 0.35
+#: See :func:`misfit_allowance`.
+_FLAT_SQUEEZE = 0.113
+_FLAT_ALLOWANCE = 1.25
+#: Side of the window (refinement-template cells, 1/10 of the data area) over which the
+#: aligned tag's local misfit is averaged (see :class:`_Aligned`).
+_MISFIT_WINDOW = 4
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
 
 #: The unit square's corners in tag order (top-left, top-right, bottom-right, bottom-left).
 _UNIT_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-
-
-@dataclass(frozen=True)
-class TemplateBank:
-    """Every printed tag of a lookup as a coarse template of its data area.
-
-    Attributes
-    ----------
-    entries : tuple of LookupEntry
-        ``entries[i]``: the lookup entry of template ``i``.
-    realization : numpy.ndarray
-        ``(N,)`` intp, index of the template's realization in its entry.
-    triangles : tuple of numpy.ndarray
-        ``triangles[i]``: ``(t, 3, 2)`` the printed triangles in data-area units (x right,
-        y down, the data area is [0, 1]²).
-    coarse : numpy.ndarray
-        ``(N, MODEL_GRID²)`` float32, each row the template (triangles bright) minus its mean,
-        divided by its norm: a dot product with a view normalized alike is their correlation.
-    """
-
-    entries: tuple[LookupEntry, ...]
-    realization: NDArray[np.intp]
-    triangles: tuple[_F64, ...]
-    coarse: _F32
-
-    def __len__(self) -> int:
-        return len(self.entries)
-
-
-def template_bank(lookup: TagLookup, max_templates: int) -> TemplateBank | None:
-    """Rasterize every printed tag of ``lookup`` (each realization with a layout and placement).
-
-    Parameters
-    ----------
-    lookup : TagLookup
-        The detector's lookup; it must be iterable (as :class:`~ottag_db.core.lookup.MemoryLookup`
-        is) for its tags to be listed.
-    max_templates : int
-        Bound on the number of templates (memory: ``4 · MODEL_GRID²`` bytes each).
-
-    Returns
-    -------
-    TemplateBank or None
-        None when the lookup cannot be listed, knows no printed tag (e.g. a portable
-        dictionary file without layouts), or holds more than ``max_templates`` of them.
-    """
-    if not isinstance(lookup, Iterable):
-        return None
-    entries: list[LookupEntry] = []
-    rows: list[int] = []
-    groups: dict[tuple[int, int], list[int]] = {}  # (points, triangles) → template indices
-    for entry in lookup:
-        if not isinstance(entry, LookupEntry) or not entry.layouts or not entry.placements:
-            continue
-        for r, (layout, place) in enumerate(zip(entry.layouts, entry.placements, strict=False)):
-            if not layout or place is None:
-                continue
-            if len(entries) >= max_templates:
-                return None
-            groups.setdefault((entry.k, len(layout)), []).append(len(entries))
-            entries.append(entry)
-            rows.append(r)
-    if not entries:
-        return None
-    coarse = np.empty((len(entries), MODEL_GRID * MODEL_GRID), dtype=np.float32)
-    triangles: list[_F64] = [np.empty((0, 3, 2))] * len(entries)
-    for members in groups.values():
-        # one batch per shape: placed points (n, k, 2), then the layout's triangles (n, t, 3, 2)
-        real = np.stack([entries[i].realizations[rows[i]] for i in members])
-        place = np.stack([_placement(entries[i], rows[i]) for i in members])
-        labels = np.asarray([entries[i].layouts[rows[i]] for i in members], dtype=np.intp)
-        unit = np.einsum("nkj,nij->nki", real, place[:, :, :2]) + place[:, None, :, 2]
-        tris = unit[np.arange(len(members))[:, None, None], labels]
-        coarse[members] = rasterize(tris, 0.0, 1.0, MODEL_GRID, _COARSE_SUPERSAMPLING).reshape(len(members), -1)
-        for j, i in enumerate(members):
-            triangles[i] = tris[j]
-    return TemplateBank(tuple(entries), np.asarray(rows, dtype=np.intp), tuple(triangles), _normalized(coarse))
-
-
-def _placement(entry: LookupEntry, r: int) -> _F64:
-    """The stored placement of realization ``r`` (the bank holds only placed realizations)."""
-    place = entry.placements[r]
-    if place is None:
-        raise ValueError(f"{entry.lambda_text}: realization {r} has no placement")
-    return place
-
-
-def rasterize(polygons: _F64, lo: float, hi: float, size: int, supersampling: int = 4) -> _F32:
-    """Area coverage of polygon sets on a square grid, many at once.
-
-    Parameters
-    ----------
-    polygons : numpy.ndarray
-        ``(n, m, v, 2)``: image ``i`` is the ``m`` polygons of ``v`` vertices ``polygons[i]``
-        (coordinates in the window's units; polygons of one image must not overlap).
-    lo, hi : float
-        The window ``[lo, hi]²`` the grid covers.
-    size : int
-        Grid side, cells.
-    supersampling : int
-        Polygons are filled at this many times the grid's resolution, then area-averaged.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n, size, size)`` float32 in [0, 1]: the covered fraction of each cell (row = y),
-        to a supersampled pixel (OpenCV fills the pixels an edge passes through).
-    """
-    n, m, v = polygons.shape[:3]
-    tile = size * supersampling
-    out = np.empty((n, size, size), dtype=np.float32)
-    per = _MOSAIC_TILES * _MOSAIC_TILES
-    scale = tile / (hi - lo)
-    for start in range(0, n, per):
-        chunk = polygons[start : start + per]
-        c = len(chunk)
-        cols = min(c, _MOSAIC_TILES)
-        nrows = -(-c // cols)
-        canvas = np.zeros((nrows * tile, cols * tile), dtype=np.uint8)
-        j = np.arange(c)
-        offset = np.stack([(j % cols) * tile, (j // cols) * tile], axis=1).astype(np.float64)
-        # pixel p of a tile covers [p, p + 1) / scale + lo: its centre is at p + 0.5
-        px = (chunk - lo) * scale - 0.5 + offset[:, None, None, :]
-        cv2.fillPoly(canvas, list(np.round(px * 16).astype(np.int32).reshape(c * m, v, 1, 2)), 255, cv2.LINE_8, 4)
-        small = cv2.resize(canvas, (cols * size, nrows * size), interpolation=cv2.INTER_AREA)
-        tiles = np.asarray(small, dtype=np.float32).reshape(nrows, size, cols, size).transpose(0, 2, 1, 3)
-        out[start : start + c] = tiles.reshape(-1, size, size)[:c] / 255.0
-    return out
-
-
-def _normalized(rows: NDArray[np.floating]) -> _F32:
-    """Rows minus their mean, divided by their norm (a zero row stays zero)."""
-    x = np.asarray(rows, dtype=np.float32)
-    x = x - x.mean(axis=1, keepdims=True)
-    norm = np.sqrt(np.einsum("ij,ij->i", x, x))[:, None]
-    out: _F32 = x / np.maximum(norm, np.float32(1e-6))
-    return out
 
 
 def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams) -> bool:
@@ -261,13 +114,18 @@ class _View:
 
 @dataclass(frozen=True)
 class _Aligned:
-    """A refined candidate: template row, view, homography data-area units → frame, and the
-    correlation of the aligned template with the frame inside the data area."""
+    """A refined candidate: template row, view, homography data-area units → frame, the
+    correlation of the aligned template with the frame inside the data area, and its largest
+    local misfit there: the mean absolute residual of the frame against the template scaled to
+    the frame's contrast (least squares), over a window of ``_MISFIT_WINDOW`` cells, in units of
+    that contrast. A tag that resembles the one seen fits well overall but leaves a patch
+    where a triangle differs."""
 
     row: int
     view: _View
     to_frame: _F64
     correlation: float
+    misfit: float
 
 
 def _views(quad: Quad, params: DetectorParams) -> list[_View]:
@@ -311,7 +169,9 @@ def _fine_template(triangles: _F64, polarity: Polarity) -> _F32:
             [[1, 0], [1 + b, 0], [1 + b, 1], [1, 1]],
         ]
     )
-    img = rasterize(triangles[None], -b, 1 + b, _FINE_GRID)[0] + rasterize(ring[None], -b, 1 + b, _FINE_GRID)[0]
+    img = rasterize(ring[None], -b, 1 + b, _FINE_GRID)[0]
+    if len(triangles):
+        img += rasterize(triangles[None], -b, 1 + b, _FINE_GRID)[0]
     out: _F32 = img if polarity == "normal" else 1.0 - img
     return out
 
@@ -332,10 +192,12 @@ def _neighbourhood(gray: NDArray[np.uint8], corners: list[_F64]) -> tuple[_F32, 
     return np.asarray(gray[y0:y1, x0:x1], dtype=np.float32), np.array([x0, y0], dtype=np.float64)
 
 
-def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -> _Aligned | None:
-    """ECC alignment of template ``row`` to the frame from the view's corners; ``roi`` is the
-    frame around the quad, its pixel (0, 0) at frame position ``origin``. None when ECC fails."""
-    start = square_homography(view.corners)
+def _ecc(roi: _F32, origin: _F64, template: _F32, corners: _F64) -> tuple[_F64, _F64] | None:
+    """ECC alignment of a refinement template (see :func:`_fine_template`) to the frame, from the
+    data-area ``corners``; ``roi`` is the frame around the quad, its pixel (0, 0) at frame
+    position ``origin``. Returns the homographies data-area units → frame and template pixels →
+    ``roi``, or None when ECC fails."""
+    start = square_homography(corners)
     if start is None or roi.shape[0] < 4 or roi.shape[1] < 4:
         return None
     b = _FINE_BAND
@@ -343,7 +205,6 @@ def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -
     px_to_unit = np.array([[step, 0, -b + step / 2], [0, step, -b + step / 2], [0, 0, 1.0]])
     to_roi = np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
     warp = (to_roi @ start @ px_to_unit).astype(np.float32)
-    template = _fine_template(bank.triangles[row], view.polarity)
     try:
         # no mask (the stubs do not list a None mask)
         rho, warp = cv2.findTransformECC(  # type: ignore[call-overload]
@@ -351,18 +212,58 @@ def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -
         )
     except cv2.error:
         return None  # ECC did not converge (or the warp became singular)
-    to_frame = np.linalg.inv(to_roi) @ np.asarray(warp, dtype=np.float64) @ np.linalg.inv(px_to_unit)
+    warp64 = np.asarray(warp, dtype=np.float64)
+    to_frame = np.linalg.inv(to_roi) @ warp64 @ np.linalg.inv(px_to_unit)
     to_frame /= to_frame[2, 2]
     if not np.isfinite(to_frame).all() or not math.isfinite(rho):
         return None
+    return to_frame, warp64
+
+
+def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -> _Aligned | None:
+    """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`_ecc`);
+    None when ECC fails."""
+    template = _fine_template(bank.triangles[row], view.polarity)
+    found = _ecc(roi, origin, template, view.corners)
+    if found is None:
+        return None
+    to_frame, warp = found
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
     seen = cv2.warpPerspective(
         roi, warp, template.shape[::-1], flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
     )
     inside = _FINE_INSIDE
-    pair = _normalized(np.stack([template[inside, inside].ravel(), np.asarray(seen)[inside, inside].ravel()]))
-    return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]))
+    t_in = template[inside, inside]
+    s_in = np.asarray(seen, dtype=np.float32)[inside, inside]
+    pair = normalized_rows(np.stack([t_in.ravel(), s_in.ravel()]))
+    a_mat = np.stack([t_in.ravel(), np.ones(t_in.size, dtype=np.float32)], axis=1)
+    coef = np.linalg.lstsq(a_mat, s_in.ravel(), rcond=None)[0]
+    resid = np.abs(s_in - (coef[0] * t_in + coef[1]))
+    local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
+    misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
+    return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit)
+
+
+def misfit_allowance(flatness: float) -> float:
+    """Factor on ``model_max_misfit`` for a quad of :func:`~ottag_db.decode.candidates.squeeze`
+    ``flatness``: 1 up to a tilt of about 83.5° (squeeze 0.113), then growing as ``0.113 /
+    squeeze`` to at most 1.25 (85° on). Flatter views blur every sliver over a pixel and leave
+    correct readings a larger misfit: at 83.5–87° their median was 0.47 (0.29–0.33 below), while
+    the best other tag of a frame whose tag was not in the lookup still misfit by 0.64 or more
+    there (0.54 below; see ``DetectorParams.model_max_misfit``).
+
+    Parameters
+    ----------
+    flatness : float
+        The quad's squeeze, in [0, 1].
+
+    Returns
+    -------
+    float
+        In [1, 1.25].
+    """
+    return min(_FLAT_ALLOWANCE, max(1.0, _FLAT_SQUEEZE / max(flatness, 1e-6)))
 
 
 def read_model(
@@ -398,6 +299,8 @@ def read_model(
         the aligned homography (frame pixels, canonical label order); else ``first``.
     """
     views = _views(quad, params)
+    # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
+    roi, origin = _neighbourhood(gray, [view.corners for view in views])
     samples: list[_F32] = []
     kept: list[_View] = []
     for view in views:
@@ -409,7 +312,7 @@ def read_model(
     if not kept:
         clock.lap("model")
         return first
-    scores = bank.coarse @ _normalized(np.stack(samples)).T  # (templates, views)
+    scores = bank.coarse @ normalized_rows(np.stack(samples)).T  # (templates, views)
     chosen: list[tuple[int, _View, float]] = []
     # the best tags of each reading of the quad (its own polarity; the inverted tag inside a
     # dark quad), so that one reading's many near-misses cannot crowd out the other's match
@@ -417,8 +320,6 @@ def read_model(
         cols = [i for i, v in enumerate(kept) if v.polarity == group]
         if cols:
             chosen += _best_tags(bank, scores[:, cols], [kept[i] for i in cols])
-    # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
-    roi, origin = _neighbourhood(gray, [view.corners for _, view, _ in chosen])
     aligned: list[_Aligned] = []
     unaligned: list[float] = []  # coarse scores of candidates ECC could not align
     for row, view, coarse in chosen:
@@ -437,8 +338,13 @@ def read_model(
     key = (bank.entries[top.row].lambda_text, top.view.polarity)
     rivals = [a.correlation for a in aligned if (bank.entries[a.row].lambda_text, a.view.polarity) != key]
     runner_up = max(rivals + unaligned, default=-1.0)
-    note = f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}".lstrip("; ")
-    if top.correlation < params.model_min_correlation or top.correlation - runner_up < params.model_min_gap:
+    note = f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}, misfit {top.misfit:.2f}"
+    note = note.lstrip("; ")
+    if (
+        top.correlation < params.model_min_correlation
+        or top.correlation - runner_up < params.model_min_gap
+        or top.misfit > params.model_max_misfit * misfit_allowance(squeeze(quad))
+    ):
         return Rejection(first.reason, note, first.lambda_text, first.decomposed)
     result = _detection(bank, top, quad)
     clock.lap("model")
@@ -469,7 +375,7 @@ def _detection(bank: TemplateBank, top: _Aligned, quad: Quad) -> Detection | Rej
     entry = bank.entries[top.row]
     r = int(bank.realization[top.row])
     real = entry.realizations[r]
-    place = _placement(entry, r)
+    place = placement(entry, r)
     unit = real @ place[:, :2].T + place[:, 2]
     points = apply_homography(top.to_frame, unit)
     corners = apply_homography(top.to_frame, _UNIT_SQUARE)

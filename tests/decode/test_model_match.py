@@ -9,8 +9,9 @@ from ottag_db.core.canonical import canonical_lambda
 from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.candidates import HALF_RES_MIN_SIDE, find_quads
-from ottag_db.decode.model_match import MODEL_GRID, rasterize, template_bank, wants_model
+from ottag_db.decode.model_match import wants_model
 from ottag_db.decode.placement_check import apply_homography
+from ottag_db.decode.templates import MODEL_GRID, rasterize, template_bank
 from ottag_db.decode.types import Quad, Rejection
 from ottag_db.printing.scenes import DrawableTag
 from tests.support.grazing import grazing_frame, grazing_set, printed_tags
@@ -66,8 +67,9 @@ def test_which_candidates_are_read_by_model() -> None:
 
 def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     """The grazing set (80–86°, both polarities): zero wrong IDs, and reading by model adds
-    reads (measured 24/28 with it, 11/28 without; issue 13 asks ≥ 97 %, not reached: the four
-    frames left are at 86°, data areas 7 px across)."""
+    reads (measured 19/28 with it, 12/28 without; issue 13 asks ≥ 97 %, not reached: the misfit
+    rule that keeps tags missing from the lookup from being read as others refuses some
+    correct readings at 83–86°, see the next test)."""
     lookup, tags = printed
     full = Detector(lookup)
     without = Detector(lookup, DetectorParams(model_match=False))
@@ -83,7 +85,23 @@ def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     with capsys.disabled():
         print(f"\ngrazing 80–86°: {ok}/{n} ({by_model} by model), without reading by model {ok_without}/{n}")
     assert wrong == 0
-    assert ok >= 23 and ok >= ok_without + 10
+    assert ok >= 17 and ok >= ok_without + 4
+
+
+def test_tags_missing_from_the_lookup_are_not_read_as_others(printed) -> None:
+    """A dictionary does not hold every tag in view: at grazing views the best stored tag can
+    resemble the one seen (correlation up to 0.89 when the seen tag's own template is missing);
+    the misfit rule must refuse it. The grazing frames (78–86°) of the 24 tags, decoded with
+    a lookup that lacks exactly those 24 order types, give no detection at all."""
+    lookup, tags = printed
+    missing = {t.lambda_text for t in tags}
+    others = Detector(MemoryLookup(e for e in lookup if e.lambda_text not in missing))
+    found = []
+    for seed in range(60):
+        tilt = 78.0 + seed % 9
+        _, image = grazing_frame(tags, seed, tilt, "normal" if seed % 3 else "inverted")
+        found += [(seed, tilt, d.lambda_text, d.model_correlation) for d in others.detect(image)]
+    assert found == []
 
 
 def test_a_model_reading_maps_the_stored_tag_onto_the_image(printed) -> None:

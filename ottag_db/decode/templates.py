@@ -1,0 +1,168 @@
+"""The printed tags of a lookup as image templates, for reading by model (:mod:`.model_match`).
+
+Every realization the lookup knows in print (its stored layout of triangles and its placement
+into the data area) is rasterized once, when a detector is built, into a coarse template of the
+data area; a frame's candidate views are scored against all of them by one matrix product.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.lookup import LookupEntry, TagLookup
+
+__all__ = ["MODEL_GRID", "TemplateBank", "normalized_rows", "placement", "rasterize", "template_bank"]
+
+_F64 = NDArray[np.float64]
+_F32 = NDArray[np.float32]
+
+#: Side of the coarse templates, cells (the data area's side; ~1,000 cells tell the tags of the
+#: complete eight-point database apart while a frame's views are scored in a few ms).
+MODEL_GRID = 32
+#: Supersampling of the coarse templates (the fine ones use :func:`rasterize`'s default, 4): a
+#: quarter of the work when the bank is built, and coarse cells are compared unaligned anyway.
+_COARSE_SUPERSAMPLING = 2
+#: Templates drawn per canvas when the bank is built (a square mosaic of tiles).
+_MOSAIC_TILES = 16
+
+
+@dataclass(frozen=True)
+class TemplateBank:
+    """Every printed tag of a lookup as a coarse template of its data area.
+
+    Attributes
+    ----------
+    entries : tuple of LookupEntry
+        ``entries[i]``: the lookup entry of template ``i``.
+    realization : numpy.ndarray
+        ``(N,)`` intp, index of the template's realization in its entry.
+    triangles : tuple of numpy.ndarray
+        ``triangles[i]``: ``(t, 3, 2)`` the printed triangles in data-area units (x right,
+        y down, the data area is [0, 1]²).
+    coarse : numpy.ndarray
+        ``(N, MODEL_GRID²)`` float32, each row the template (triangles bright) minus its mean,
+        divided by its norm: a dot product with a view normalized alike is their correlation.
+    """
+
+    entries: tuple[LookupEntry, ...]
+    realization: NDArray[np.intp]
+    triangles: tuple[_F64, ...]
+    coarse: _F32
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+
+def template_bank(lookup: TagLookup, max_templates: int) -> TemplateBank | None:
+    """Rasterize every printed tag of ``lookup`` (each realization with a layout and placement).
+
+    Parameters
+    ----------
+    lookup : TagLookup
+        The detector's lookup; it must be iterable (as :class:`~ottag_db.core.lookup.MemoryLookup`
+        is) for its tags to be listed.
+    max_templates : int
+        Bound on the number of templates (memory: ``4 · MODEL_GRID²`` bytes each).
+
+    Returns
+    -------
+    TemplateBank or None
+        None when the lookup cannot be listed, knows no printed tag (e.g. a portable
+        dictionary file without layouts), or holds more than ``max_templates`` of them.
+    """
+    if not isinstance(lookup, Iterable):
+        return None
+    entries: list[LookupEntry] = []
+    rows: list[int] = []
+    groups: dict[tuple[int, int], list[int]] = {}  # (points, triangles) → template indices
+    for entry in lookup:
+        if not isinstance(entry, LookupEntry) or not entry.layouts or not entry.placements:
+            continue
+        for r, (layout, place) in enumerate(zip(entry.layouts, entry.placements, strict=False)):
+            if not layout or place is None:
+                continue
+            if len(entries) >= max_templates:
+                return None
+            groups.setdefault((entry.k, len(layout)), []).append(len(entries))
+            entries.append(entry)
+            rows.append(r)
+    if not entries:
+        return None
+    coarse = np.empty((len(entries), MODEL_GRID * MODEL_GRID), dtype=np.float32)
+    triangles: list[_F64] = [np.empty((0, 3, 2))] * len(entries)
+    for members in groups.values():
+        # one batch per shape: placed points (n, k, 2), then the layout's triangles (n, t, 3, 2)
+        real = np.stack([entries[i].realizations[rows[i]] for i in members])
+        place = np.stack([placement(entries[i], rows[i]) for i in members])
+        labels = np.asarray([entries[i].layouts[rows[i]] for i in members], dtype=np.intp)
+        unit = np.einsum("nkj,nij->nki", real, place[:, :, :2]) + place[:, None, :, 2]
+        tris = unit[np.arange(len(members))[:, None, None], labels]
+        coarse[members] = rasterize(tris, 0.0, 1.0, MODEL_GRID, _COARSE_SUPERSAMPLING).reshape(len(members), -1)
+        for j, i in enumerate(members):
+            triangles[i] = tris[j]
+    return TemplateBank(tuple(entries), np.asarray(rows, dtype=np.intp), tuple(triangles), normalized_rows(coarse))
+
+
+def placement(entry: LookupEntry, r: int) -> _F64:
+    """The stored placement of realization ``r`` (the bank holds only placed realizations)."""
+    place = entry.placements[r]
+    if place is None:
+        raise ValueError(f"{entry.lambda_text}: realization {r} has no placement")
+    return place
+
+
+def rasterize(polygons: _F64, lo: float, hi: float, size: int, supersampling: int = 4) -> _F32:
+    """Area coverage of polygon sets on a square grid, many at once.
+
+    Parameters
+    ----------
+    polygons : numpy.ndarray
+        ``(n, m, v, 2)``: image ``i`` is the ``m`` polygons of ``v`` vertices ``polygons[i]``
+        (coordinates in the window's units; polygons of one image must not overlap).
+    lo, hi : float
+        The window ``[lo, hi]²`` the grid covers.
+    size : int
+        Grid side, cells.
+    supersampling : int
+        Polygons are filled at this many times the grid's resolution, then area-averaged.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, size, size)`` float32 in [0, 1]: the covered fraction of each cell (row = y),
+        to a supersampled pixel (OpenCV fills the pixels an edge passes through).
+    """
+    n, m, v = polygons.shape[:3]
+    tile = size * supersampling
+    out = np.empty((n, size, size), dtype=np.float32)
+    per = _MOSAIC_TILES * _MOSAIC_TILES
+    scale = tile / (hi - lo)
+    for start in range(0, n, per):
+        chunk = polygons[start : start + per]
+        c = len(chunk)
+        cols = min(c, _MOSAIC_TILES)
+        nrows = -(-c // cols)
+        canvas = np.zeros((nrows * tile, cols * tile), dtype=np.uint8)
+        j = np.arange(c)
+        offset = np.stack([(j % cols) * tile, (j // cols) * tile], axis=1).astype(np.float64)
+        # pixel p of a tile covers [p, p + 1) / scale + lo: its centre is at p + 0.5
+        px = (chunk - lo) * scale - 0.5 + offset[:, None, None, :]
+        cv2.fillPoly(canvas, list(np.round(px * 16).astype(np.int32).reshape(c * m, v, 1, 2)), 255, cv2.LINE_8, 4)
+        small = cv2.resize(canvas, (cols * size, nrows * size), interpolation=cv2.INTER_AREA)
+        tiles = np.asarray(small, dtype=np.float32).reshape(nrows, size, cols, size).transpose(0, 2, 1, 3)
+        out[start : start + c] = tiles.reshape(-1, size, size)[:c] / 255.0
+    return out
+
+
+def normalized_rows(rows: NDArray[np.floating]) -> _F32:
+    """Rows minus their mean, divided by their norm (a zero row stays zero)."""
+    x = np.asarray(rows, dtype=np.float32)
+    x = x - x.mean(axis=1, keepdims=True)
+    norm = np.sqrt(np.einsum("ij,ij->i", x, x))[:, None]
+    out: _F32 = x / np.maximum(norm, np.float32(1e-6))
+    return out
