@@ -70,6 +70,8 @@ _FLAT_ALLOWANCE = 1.25
 #: Side of the window (refinement-template cells, 1/10 of the data area) over which the
 #: aligned tag's local misfit is averaged (see :class:`_Aligned`).
 _MISFIT_WINDOW = 4
+#: Gaussian σ (cells) of the template the misfit is measured against.
+_MISFIT_BLUR = 1.0
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
 
@@ -116,10 +118,10 @@ class _View:
 class _Aligned:
     """A refined candidate: template row, view, homography data-area units → frame, the
     correlation of the aligned template with the frame inside the data area, and its largest
-    local misfit there: the mean absolute residual of the frame against the template scaled to
-    the frame's contrast (least squares), over a window of ``_MISFIT_WINDOW`` cells, in units of
-    that contrast. A tag that resembles the one seen fits well overall but leaves a patch
-    where a triangle differs."""
+    local misfit there: the mean absolute residual of the frame against the template (blurred by
+    ``_MISFIT_BLUR``) scaled to the frame's contrast (least squares), over a window of
+    ``_MISFIT_WINDOW`` cells, in units of that contrast. A tag that resembles the one seen fits
+    well overall but leaves a patch where a triangle differs."""
 
     row: int
     view: _View
@@ -237,9 +239,11 @@ def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -
     t_in = template[inside, inside]
     s_in = np.asarray(seen, dtype=np.float32)[inside, inside]
     pair = normalized_rows(np.stack([t_in.ravel(), s_in.ravel()]))
-    a_mat = np.stack([t_in.ravel(), np.ones(t_in.size, dtype=np.float32)], axis=1)
+    # the template blurred like a view of it, so that edges alone do not count as misfit
+    t_fit = cv2.GaussianBlur(template, (0, 0), _MISFIT_BLUR)[inside, inside]
+    a_mat = np.stack([t_fit.ravel(), np.ones(t_fit.size, dtype=np.float32)], axis=1)
     coef = np.linalg.lstsq(a_mat, s_in.ravel(), rcond=None)[0]
-    resid = np.abs(s_in - (coef[0] * t_in + coef[1]))
+    resid = np.abs(s_in - (coef[0] * t_fit + coef[1]))
     local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
     misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
     return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit)
@@ -249,9 +253,9 @@ def misfit_allowance(flatness: float) -> float:
     """Factor on ``model_max_misfit`` for a quad of :func:`~ottag_db.decode.candidates.squeeze`
     ``flatness``: 1 up to a tilt of about 83.5° (squeeze 0.113), then growing as ``0.113 /
     squeeze`` to at most 1.25 (85° on). Flatter views blur every sliver over a pixel and leave
-    correct readings a larger misfit: at 83.5–87° their median was 0.47 (0.29–0.33 below), while
-    the best other tag of a frame whose tag was not in the lookup still misfit by 0.64 or more
-    there (0.54 below; see ``DetectorParams.model_max_misfit``).
+    correct readings a larger misfit: at 83.5–87° their median was 0.35 (0.19–0.22 below), while
+    the best other tag of a frame whose tag was not in the lookup still misfit by 0.50 or more
+    there (0.41 below; see ``DetectorParams.model_max_misfit``).
 
     Parameters
     ----------

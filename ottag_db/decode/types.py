@@ -258,8 +258,11 @@ class DetectorParams:
       lookup): correct readings reach ρ 0.91 (median), misread tops at most 0.77; but with
       the frame's tag removed from the lookup (a tag not in a dictionary), the best other tag
       reached ρ 0.89 and a gap of 0.24, and 7 of 354 such readings passed correlation and gap;
-      their misfit was at least 0.54, where half of the correct readings stay under 0.35. With
-      all three rules none of the 354 passed and about 3 in 4 correct readings are kept;
+      the misfit of every one of the 354 was at least 0.41 (0.50 beyond 83.5°, where the limit
+      grows, see :func:`~ottag_db.decode.model_match.misfit_allowance`), while half of the
+      correct readings stay under 0.22 (0.35). With all three rules none of the 354 passed
+      (the nearest at 1.22 times its limit) and 254 of the 285 correct readings that pass
+      correlation and gap are kept;
     - ``model_max_templates``: a lookup with more printed tags than this is not read by model
       (the templates take ``4 · 32²`` bytes each, built with the detector).
 
@@ -302,7 +305,7 @@ class DetectorParams:
     model_match: bool = True
     model_min_correlation: float = 0.8
     model_min_gap: float = 0.08
-    model_max_misfit: float = 0.45
+    model_max_misfit: float = 0.34
     model_max_templates: int = 20_000
 
     def __post_init__(self) -> None:

@@ -67,7 +67,7 @@ def test_which_candidates_are_read_by_model() -> None:
 
 def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     """The grazing set (80–86°, both polarities): zero wrong IDs, and reading by model adds
-    reads (measured 19/28 with it, 12/28 without; issue 13 asks ≥ 97 %, not reached: the misfit
+    reads (measured 21/28 with it, 12/28 without; issue 13 asks ≥ 97 %, not reached: the misfit
     rule that keeps tags missing from the lookup from being read as others refuses some
     correct readings at 83–86°, see the next test)."""
     lookup, tags = printed
@@ -85,7 +85,7 @@ def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     with capsys.disabled():
         print(f"\ngrazing 80–86°: {ok}/{n} ({by_model} by model), without reading by model {ok_without}/{n}")
     assert wrong == 0
-    assert ok >= 17 and ok >= ok_without + 4
+    assert ok >= 19 and ok >= ok_without + 6
 
 
 def test_tags_missing_from_the_lookup_are_not_read_as_others(printed) -> None:
