@@ -337,17 +337,23 @@ def read_model(
         return first
     aligned.sort(key=lambda a: -a.correlation)
     top = aligned[0]
-    # the next best reading of another tag (ID or polarity); a candidate ECC lost counts with
-    # its coarse score, so that a failed alignment cannot make the winner look unrivalled
+    limit = params.model_max_misfit * misfit_allowance(squeeze(quad))
+    # the next best reading of another tag (ID or polarity) that fits as well: a rival that
+    # misfits somewhere is explained away; a candidate ECC lost counts with its coarse score,
+    # so that a failed alignment cannot make the winner look unrivalled
     key = (bank.entries[top.row].lambda_text, top.view.polarity)
-    rivals = [a.correlation for a in aligned if (bank.entries[a.row].lambda_text, a.view.polarity) != key]
+    rivals = [
+        a.correlation
+        for a in aligned
+        if (bank.entries[a.row].lambda_text, a.view.polarity) != key and a.misfit <= limit
+    ]
     runner_up = max(rivals + unaligned, default=-1.0)
     note = f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}, misfit {top.misfit:.2f}"
     note = note.lstrip("; ")
     if (
         top.correlation < params.model_min_correlation
         or top.correlation - runner_up < params.model_min_gap
-        or top.misfit > params.model_max_misfit * misfit_allowance(squeeze(quad))
+        or top.misfit > limit
     ):
         return Rejection(first.reason, note, first.lambda_text, first.decomposed)
     result = _detection(bank, top, quad)
