@@ -6,22 +6,26 @@ points are too close to call. The quad still gives the homography from the data 
 image, and every tag the lookup holds is known in print (its stored realization, layout and
 placement), so the image can *choose among the stored tags* instead (issue 13, scope 1):
 
-1. **Coarse match.** Each printed tag is rasterized once into a ``T × T`` template of its data
-   area (:class:`~ottag_db.decode.templates.TemplateBank`, built with the detector). The candidate's data area is warped
-   to the same grid in its four rotations (and, for a dark quad, as the quiet zone of an
-   inverted tag whose white data area was not found as a quad of its own); one matrix product
-   scores every template against every view by normalized correlation.
+1. **Coarse match.** Each printed tag is rasterized once into a ``32 × 32`` template of its
+   data area (:class:`~ottag_db.decode.templates.TemplateBank`, built with the detector). The
+   candidate's data area is warped to the same grid in its four rotations (and, for a dark
+   quad, as the quiet zone of an inverted tag whose white data area was not found as a quad of
+   its own); one matrix product scores every template against every view by normalized
+   correlation.
 2. **Refinement.** The best few tags (distinct IDs) are each aligned to the frame by OpenCV's
    ECC (:func:`cv2.findTransformECC`, a homography from a finer template of the data area and
    a band of its quiet zone), which also corrects the whole-pixel contour corners.
-3. **Decision.** The best aligned tag is accepted only when its correlation reaches
-   ``model_min_correlation`` *and* beats every other refined tag's by ``model_min_gap``; its
-   points are the stored realization mapped by the aligned homography, and their order type
-   must be the tag's own (a projective map that keeps orientation keeps it).
+3. **Decision.** The best aligned tag is accepted only when its correlation inside the data
+   area reaches ``model_min_correlation``, it nowhere misfits the image by more than
+   ``model_max_misfit`` (a stored tag that merely resembles the one seen leaves a patch where a
+   triangle differs), and it beats by ``model_min_gap`` every other refined tag that fits as
+   well; its points are the stored realization mapped by the aligned homography, and their
+   order type must be the tag's own (a projective map that keeps orientation keeps it).
 
 The ID is still an order type: the image only chooses which stored one it shows, so a tag
 drawn with other triangles or another placement is not read this way. The detector runs this
-stage last, for a foreshortened candidate that no reading decoded (:func:`wants_model`).
+stage last, for a foreshortened candidate that no reading decoded (:func:`wants_model`), after
+the other readings of its candidate pass and only off the tags they decoded.
 """
 
 from __future__ import annotations
