@@ -42,7 +42,7 @@ from ottag_db.core.single_set import read_set
 from ottag_db.core.types import Polarity
 from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import for_polarity
-from ottag_db.decode.placement_check import apply_homography, square_homography
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.templates import MODEL_GRID, TemplateBank, normalized_rows, placement, rasterize
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
@@ -78,9 +78,6 @@ _MISFIT_WINDOW = 4
 _MISFIT_BLUR = 1.0
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
-
-#: The unit square's corners in tag order (top-left, top-right, bottom-right, bottom-left).
-_UNIT_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
 
 def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams) -> bool:
@@ -142,7 +139,7 @@ def _views(quad: Quad, params: DetectorParams) -> list[_View]:
         outer = square_homography(quad.corners)
         if outer is not None:
             q = _INVERTED_QUIET / (1 + 2 * _INVERTED_QUIET)
-            inner = apply_homography(outer, q + (1 - 2 * q) * _UNIT_SQUARE)
+            inner = apply_homography(outer, q + (1 - 2 * q) * UNIT_SQUARE)
             if np.isfinite(inner).all():
                 views += [_View(np.roll(inner, -r, axis=0), "inverted") for r in range(4)]
     return [v for v in views if v.polarity in params.polarities]
@@ -392,7 +389,7 @@ def _detection(bank: TemplateBank, top: _Aligned, quad: Quad) -> Detection | Rej
     place = placement(entry, r)
     unit = real @ place[:, :2].T + place[:, 2]
     points = apply_homography(top.to_frame, unit)
-    corners = apply_homography(top.to_frame, _UNIT_SQUARE)
+    corners = apply_homography(top.to_frame, UNIT_SQUARE)
     if not (np.isfinite(points).all() and np.isfinite(corners).all()):
         return Rejection("verification", "by model: the aligned homography is degenerate")
     table, orderings = read_set(points)

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 __all__ = [
     "PLACEMENT_BOUND_FACTOR",
     "PLACEMENT_MAX_UNITS",
+    "UNIT_SQUARE",
     "PlacementError",
     "apply_homography",
     "placement_error",
@@ -59,7 +60,7 @@ PLACEMENT_BOUND_FACTOR = 2.0
 PLACEMENT_MAX_UNITS = 0.2
 
 #: The data-area corners in data-area units: top-left, top-right, bottom-right, bottom-left.
-_UNIT_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+UNIT_SQUARE = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
 
 @dataclass(frozen=True)
@@ -88,7 +89,7 @@ def square_homography(corners: _F64) -> _F64 | None:
         ``(3, 3)``, ``H[2, 2] = 1``; None when the corners are degenerate.
     """
     a = np.zeros((8, 8))
-    for i, ((x, y), (u, v)) in enumerate(zip(_UNIT_SQUARE.tolist(), corners.tolist(), strict=True)):
+    for i, ((x, y), (u, v)) in enumerate(zip(UNIT_SQUARE.tolist(), corners.tolist(), strict=True)):
         a[2 * i] = [x, y, 1, 0, 0, 0, -u * x, -u * y]
         a[2 * i + 1] = [0, 0, 0, x, y, 1, -v * x, -v * y]
     try:
