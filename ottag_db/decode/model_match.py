@@ -15,17 +15,23 @@ placement), so the image can *choose among the stored tags* instead (issue 13, s
 2. **Refinement.** The best few tags (distinct IDs) are each aligned to the frame by OpenCV's
    ECC (:func:`cv2.findTransformECC`, a homography from a finer template of the data area and
    a band of its quiet zone), which also corrects the whole-pixel contour corners.
-3. **Decision.** The best aligned tag is accepted only when its correlation inside the data
-   area reaches ``model_min_correlation``, it nowhere misfits the image by more than
-   ``model_max_misfit`` (a stored tag that merely resembles the one seen leaves a patch where a
-   triangle differs), and it beats by ``model_min_gap`` every other refined tag that fits as
-   well; its points are the stored realization mapped by the aligned homography, and their
-   order type must be the tag's own (a projective map that keeps orientation keeps it).
+3. **Decision.** Each aligned tag is judged as the camera would see it: drawn into the frame
+   through the aligned homography, blurred like a camera image and sampled back like the
+   frame (:func:`~ottag_db.decode.templates.draw_through`). At a grazing view a pixel averages
+   a long strip of the data area; a template compared in data-area units makes the correct
+   tag's sliver tips misfit like another tag's triangle. The best aligned tag is accepted
+   only when its correlation inside the data area reaches ``model_min_correlation``, it
+   nowhere misfits the image by more than ``model_max_misfit`` (a stored tag that merely
+   resembles the one seen leaves a patch where a triangle differs), and it beats by
+   ``model_min_gap`` every other refined tag that fits as well; its points are the stored
+   realization mapped by the aligned homography, and their order type must be the tag's own
+   (a projective map that keeps orientation keeps it).
 
 The ID is still an order type: the image only chooses which stored one it shows, so a tag
 drawn with other triangles or another placement is not read this way. The detector runs this
-stage last, for a foreshortened candidate that no reading decoded (:func:`wants_model`), after
-the other readings of its candidate pass and only off the tags they decoded.
+stage last, for a foreshortened or small candidate that no reading decoded
+(:func:`wants_model`), after the other readings of its candidate pass and only off the tags
+they decoded.
 """
 
 from __future__ import annotations
@@ -44,10 +50,17 @@ from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
-from ottag_db.decode.templates import MODEL_GRID, TemplateBank, normalized_rows, placement, rasterize
+from ottag_db.decode.templates import (
+    MODEL_GRID,
+    TemplateBank,
+    draw_through,
+    normalized_rows,
+    placement,
+    rasterize,
+)
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
-__all__ = ["MODEL_CANDIDATES", "misfit_allowance", "read_model", "wants_model"]
+__all__ = ["MODEL_CANDIDATES", "read_model", "wants_model"]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
@@ -68,14 +81,13 @@ _FINE_INSIDE = slice(
 _INVERTED_QUIET = 0.25
 #: A coarse score below this cannot become a detection: the candidate is not refined.
 _MIN_COARSE = 0.35
-#: See :func:`misfit_allowance`.
-_FLAT_SQUEEZE = 0.113
-_FLAT_ALLOWANCE = 1.25
 #: Side of the window (refinement-template cells, 1/10 of the data area) over which the
 #: aligned tag's local misfit is averaged (see :class:`_Aligned`).
 _MISFIT_WINDOW = 4
-#: Gaussian σ (cells) of the template the misfit is measured against.
-_MISFIT_BLUR = 1.0
+#: Gaussian σ (frame pixels) of the camera blur the tag is drawn with when it is judged, and the
+#: quiet zone drawn around it (data-area units, :data:`_INVERTED_QUIET`).
+_CAMERA_BLUR_PX = 0.45
+_DRAWN_QUIET = _INVERTED_QUIET
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
 
@@ -94,17 +106,17 @@ def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], par
         too.
     params : DetectorParams
         ``model_match`` (False turns the stage off); only quads foreshortened to at most
-        ``rectify_max_ratio`` are read by model.
+        ``rectify_max_ratio`` and data areas smaller than ``print_check_side_px`` (where a
+        reading must show the tag as printed anyway, see
+        :func:`~ottag_db.decode.candidates.shows_print`) are read by model.
 
     Returns
     -------
     bool
     """
-    return (
-        params.model_match
-        and (first.reason in retry_reasons or first.reason == "no_triangles")
-        and squeeze(quad) <= params.rectify_max_ratio
-    )
+    if not params.model_match or not (first.reason in retry_reasons or first.reason == "no_triangles"):
+        return False
+    return squeeze(quad) <= params.rectify_max_ratio or math.sqrt(quad.area) < params.print_check_side_px
 
 
 @dataclass(frozen=True)
@@ -118,11 +130,13 @@ class _View:
 @dataclass(frozen=True)
 class _Aligned:
     """A refined candidate: template row, view, homography data-area units → frame, the
-    correlation of the aligned template with the frame inside the data area, and its largest
-    local misfit there: the mean absolute residual of the frame against the template (blurred by
-    ``_MISFIT_BLUR``) scaled to the frame's contrast (least squares), over a window of
-    ``_MISFIT_WINDOW`` cells, in units of that contrast. A tag that resembles the one seen fits
-    well overall but leaves a patch where a triangle differs."""
+    correlation of the aligned tag with the frame inside the data area, and its largest local
+    misfit there. Both compare the frame with the tag as the camera would see it: drawn into
+    the frame through the aligned homography, blurred by ``_CAMERA_BLUR_PX`` and sampled back
+    like the frame. The misfit is the mean absolute residual of the frame against that view
+    (scaled to the frame's contrast by least squares) over a window of ``_MISFIT_WINDOW``
+    cells, in units of that contrast: a tag that resembles the one seen fits well overall but
+    leaves a patch where a triangle differs."""
 
     row: int
     view: _View
@@ -143,6 +157,26 @@ def _views(quad: Quad, params: DetectorParams) -> list[_View]:
             if np.isfinite(inner).all():
                 views += [_View(np.roll(inner, -r, axis=0), "inverted") for r in range(4)]
     return [v for v in views if v.polarity in params.polarities]
+
+
+def _outline_views(roi: _F32, origin: _F64, views: list[_View], side: float) -> list[_View]:
+    """The views again with corners aligned by ECC to a blank tag (quiet band, dark data area):
+    at a grazing view the contour's whole-pixel corners are off by a large part of the data
+    area's short side, and the coarse match then ranks the tag seen below look-alikes."""
+    out: list[_View] = []
+    for polarity in ("normal", "inverted"):
+        first = next((v for v in views if v.polarity == polarity), None)
+        if first is None:
+            continue
+        found = _ecc(roi, origin, _fine_template(np.zeros((0, 3, 2)), polarity), first.corners)
+        if found is None:
+            continue
+        corners = apply_homography(found[0], UNIT_SQUARE)
+        # an alignment that wandered off the quad is no better start
+        if not np.isfinite(corners).all() or np.abs(corners - first.corners).max() > 0.25 * side + 3:
+            continue
+        out += [_View(np.roll(corners, -r, axis=0), polarity) for r in range(4)]
+    return out
 
 
 def _sample(gray: NDArray[np.uint8], to_frame: _F64, lo: float, hi: float, size: int) -> _F32 | None:
@@ -224,51 +258,38 @@ def _ecc(roi: _F32, origin: _F64, template: _F32, corners: _F64) -> tuple[_F64, 
 
 
 def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -> _Aligned | None:
-    """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`_ecc`);
-    None when ECC fails."""
+    """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`_ecc`),
+    judged against the tag as the camera would see it there; None when ECC fails."""
     template = _fine_template(bank.triangles[row], view.polarity)
     found = _ecc(roi, origin, template, view.corners)
     if found is None:
         return None
     to_frame, warp = found
+    size = template.shape[::-1]
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    seen = cv2.warpPerspective(roi, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    # The tag drawn into the frame through the aligned homography and blurred like a camera
+    # image, then sampled back like the frame: at a grazing view each pixel averages a long
+    # strip of the data area, which a template blurred in data-area units does not model (the
+    # correct tag's sliver tips then misfit like a different tag's triangle).
+    to_roi = np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]]) @ to_frame
+    drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, to_roi, (roi.shape[0], roi.shape[1]))
+    if view.polarity == "inverted":
+        drawn = np.float32(1.0) - drawn
+    drawn = np.asarray(cv2.GaussianBlur(drawn, (0, 0), _CAMERA_BLUR_PX), dtype=np.float32)
+    expected = cv2.warpPerspective(drawn, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
-    seen = cv2.warpPerspective(
-        roi, warp, template.shape[::-1], flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
-    )
     inside = _FINE_INSIDE
-    t_in = template[inside, inside]
+    e_in = np.asarray(expected, dtype=np.float32)[inside, inside]
     s_in = np.asarray(seen, dtype=np.float32)[inside, inside]
-    pair = normalized_rows(np.stack([t_in.ravel(), s_in.ravel()]))
-    # the template blurred like a view of it, so that edges alone do not count as misfit
-    t_fit = cv2.GaussianBlur(template, (0, 0), _MISFIT_BLUR)[inside, inside]
-    a_mat = np.stack([t_fit.ravel(), np.ones(t_fit.size, dtype=np.float32)], axis=1)
+    pair = normalized_rows(np.stack([e_in.ravel(), s_in.ravel()]))
+    a_mat = np.stack([e_in.ravel(), np.ones(e_in.size, dtype=np.float32)], axis=1)
     coef = np.linalg.lstsq(a_mat, s_in.ravel(), rcond=None)[0]
-    resid = np.abs(s_in - (coef[0] * t_fit + coef[1]))
+    resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
     local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
     misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
     return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit)
-
-
-def misfit_allowance(flatness: float) -> float:
-    """Factor on ``model_max_misfit`` for a quad of :func:`~ottag_db.decode.candidates.squeeze`
-    ``flatness``: 1 up to a tilt of about 83.5° (squeeze 0.113), then growing as ``0.113 /
-    squeeze`` to at most 1.25 (85° on). Flatter views blur every sliver over a pixel and leave
-    correct readings a larger misfit: at 83.5–87° their median was 0.35 (0.19–0.22 below), while
-    the best other tag of a frame whose tag was not in the lookup still misfit by 0.50 or more
-    there (0.41 below; see ``DetectorParams.model_max_misfit``).
-
-    Parameters
-    ----------
-    flatness : float
-        The quad's squeeze, in [0, 1].
-
-    Returns
-    -------
-    float
-        In [1, 1.25].
-    """
-    return min(_FLAT_ALLOWANCE, max(1.0, _FLAT_SQUEEZE / max(flatness, 1e-6)))
 
 
 def read_model(
@@ -306,6 +327,7 @@ def read_model(
     views = _views(quad, params)
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
     roi, origin = _neighbourhood(gray, [view.corners for view in views])
+    views += _outline_views(roi, origin, views, math.sqrt(quad.area))
     samples: list[_F32] = []
     kept: list[_View] = []
     for view in views:
@@ -338,7 +360,7 @@ def read_model(
         return first
     aligned.sort(key=lambda a: -a.correlation)
     top = aligned[0]
-    limit = params.model_max_misfit * misfit_allowance(squeeze(quad))
+    limit = params.model_max_misfit
     # the next best reading of another tag (ID or polarity) that fits as well: a rival that
     # misfits somewhere is explained away; a candidate ECC lost counts with its coarse score,
     # so that a failed alignment cannot make the winner look unrivalled

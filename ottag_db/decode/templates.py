@@ -15,8 +15,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry, TagLookup
+from ottag_db.decode.placement_check import UNIT_SQUARE
 
-__all__ = ["MODEL_GRID", "TemplateBank", "normalized_rows", "placement", "rasterize", "template_bank"]
+__all__ = [
+    "MODEL_GRID",
+    "TemplateBank",
+    "draw_through",
+    "normalized_rows",
+    "placement",
+    "rasterize",
+    "template_bank",
+]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
@@ -156,6 +165,50 @@ def rasterize(polygons: _F64, lo: float, hi: float, size: int, supersampling: in
         small = cv2.resize(canvas, (cols * size, nrows * size), interpolation=cv2.INTER_AREA)
         tiles = np.asarray(small, dtype=np.float32).reshape(nrows, size, cols, size).transpose(0, 2, 1, 3)
         out[start : start + c] = tiles.reshape(-1, size, size)[:c] / 255.0
+    return out
+
+
+def draw_through(
+    triangles: _F64, quiet: float, to_pixels: _F64, shape: tuple[int, int], supersampling: int = 4
+) -> _F32:
+    """A printed tag as a camera would see it through a homography, before the camera's blur.
+
+    The quiet zone (``quiet`` wide around the data area) and the triangles are bright, the
+    data area dark (a normal tag; an inverted one is ``1 −`` this); everything else is 0.
+
+    Parameters
+    ----------
+    triangles : numpy.ndarray
+        ``(t, 3, 2)`` printed triangles in data-area units (the data area is [0, 1]²).
+    quiet : float
+        Width of the quiet zone drawn, data-area units.
+    to_pixels : numpy.ndarray
+        ``(3, 3)`` homography data-area units → image pixels (pixel centres at integers).
+    shape : tuple of int
+        ``(H, W)`` of the image.
+    supersampling : int
+        The polygons are filled at this many times the image's resolution, then area-averaged.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(H, W)`` float32 in [0, 1], the covered fraction of each pixel.
+    """
+    h, w = shape
+    q = quiet
+    outer = np.array([[-q, -q], [1 + q, -q], [1 + q, 1 + q], [-q, 1 + q]])
+    flat = np.concatenate([outer, UNIT_SQUARE, triangles.reshape(-1, 2)])
+    mapped = to_pixels[:, :2] @ flat.T + to_pixels[:, 2:]
+    # a pixel's centre p covers [p − 0.5, p + 0.5): supersampled pixel j is centred at (j + 0.5) / s − 0.5
+    px = ((mapped[:2] / mapped[2]).T + 0.5) * supersampling - 0.5
+    fixed = np.round(px * 16).astype(np.int32).reshape(-1, 1, 2)
+    canvas = np.zeros((h * supersampling, w * supersampling), dtype=np.uint8)
+    cv2.fillPoly(canvas, [fixed[:4]], 255, cv2.LINE_8, 4)
+    cv2.fillPoly(canvas, [fixed[4:8]], 0, cv2.LINE_8, 4)
+    if len(triangles):
+        cv2.fillPoly(canvas, list(fixed[8:].reshape(-1, 3, 1, 2)), 255, cv2.LINE_8, 4)
+    small = cv2.resize(canvas, (w, h), interpolation=cv2.INTER_AREA)
+    out: _F32 = np.asarray(small, dtype=np.float32) / np.float32(255.0)
     return out
 
 

@@ -228,7 +228,8 @@ class DetectorParams:
       (``sqrt(area)``) is under this, px: at 21–24 px wide, 8-point tags with a vertex lost in
       a blurred corner read as 6- or 7-point types at full margin (benchmarks/decode_sweeps.py,
       6–7 m, issue 13); 0 turns this off (see
-      :func:`~ottag_db.decode.candidates.shows_print`).
+      :func:`~ottag_db.decode.candidates.shows_print`). Such data areas are also read by
+      model when nothing else reads them.
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
     ``min_margin_px``:
@@ -246,25 +247,24 @@ class DetectorParams:
       this fraction of the bound (see the value's comment).
 
     Reading by model (:mod:`ottag_db.decode.model_match`), the last resort for a foreshortened
-    candidate (``rectify_max_ratio``) that no reading decoded:
+    candidate (``rectify_max_ratio``) or a small one (``print_check_side_px``) that no reading
+    decoded:
 
     - ``model_match``: choose among the lookup's printed tags (stored realization, layout and
       placement) by projecting each through the quad and aligning the best to the image;
-    - ``model_min_correlation``: the aligned tag's correlation with the image must reach this;
+    - ``model_min_correlation``: the aligned tag's correlation with the image (both inside the
+      data area; the tag drawn into the frame with a camera's blur) must reach this;
     - ``model_min_gap``: … and exceed by this every other refined tag's that also stays within
-      the misfit limit (a rival with a misfit patch is explained away; on the 480 frames below
-      this reads 388 instead of 381, with no wrong ID and none with the frame's tag missing);
+      the misfit limit (a rival with a misfit patch is explained away);
     - ``model_max_misfit``: … and nowhere misfit the image by more than this (the mean absolute
       residual over a tenth of the data area, in units of the tag's contrast). Measured on
       grazing frames (78–86°, benchmarks/decode_sweeps.py scenes, 480 frames, complete k ≤ 8
-      lookup): correct readings reach ρ 0.91 (median), misread tops at most 0.77; but with
-      the frame's tag removed from the lookup (a tag not in a dictionary), the best other tag
-      reached ρ 0.89 and a gap of 0.24, and 7 of 354 such readings passed correlation and gap;
-      the misfit of every one of the 354 was at least 0.41 (0.50 beyond 83.5°, where the limit
-      grows, see :func:`~ottag_db.decode.model_match.misfit_allowance`), while half of the
-      correct readings stay under 0.22 (0.35). With all three rules none of the 354 passed
-      (the nearest at 1.22 times its limit) and 254 of the 285 correct readings that pass
-      correlation and gap are kept;
+      lookup): the correct tag, once aligned, reaches ρ 0.99 (median; 1 % under 0.91) with a
+      misfit of 0.14 (median; 1 % over 0.31). With the frame's tag removed from the lookup (a
+      tag not in a dictionary), the best other tags came within reach in one way at a time:
+      every one with ρ ≥ 0.90 misfit by 0.35 or more (1.25 times the limit), every one with
+      a misfit ≤ 0.32 had ρ ≤ 0.90. With these limits none of them is read and 430 of the
+      480 frames are;
     - ``model_max_templates``: a lookup with more printed tags than this is not read by model
       (the templates take ``4 · 32²`` bytes each, built with the detector).
 
@@ -305,9 +305,9 @@ class DetectorParams:
     #: 0.35 keeps 202 of the 216 correct ones.
     soft_min_fit_gap: float = 0.35
     model_match: bool = True
-    model_min_correlation: float = 0.8
+    model_min_correlation: float = 0.92
     model_min_gap: float = 0.08
-    model_max_misfit: float = 0.34
+    model_max_misfit: float = 0.28
     model_max_templates: int = 20_000
 
     def __post_init__(self) -> None:

@@ -11,7 +11,7 @@ from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.candidates import HALF_RES_MIN_SIDE, find_quads
 from ottag_db.decode.model_match import wants_model
 from ottag_db.decode.placement_check import apply_homography
-from ottag_db.decode.templates import MODEL_GRID, rasterize, template_bank
+from ottag_db.decode.templates import MODEL_GRID, draw_through, rasterize, template_bank
 from ottag_db.decode.types import Quad, Rejection
 from ottag_db.printing.scenes import DrawableTag
 from tests.support.grazing import grazing_frame, grazing_set, printed_tags
@@ -38,6 +38,24 @@ def test_rasterize_gives_the_covered_fraction_of_each_cell() -> None:
     np.testing.assert_array_equal(img[399], img[1])
 
 
+def test_draw_through_draws_the_print_as_a_camera_sees_it() -> None:
+    """Quiet zone and triangles bright, data area dark, the rest 0; pixel areas, not samples."""
+    tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]])  # half of the data area
+    # data area [10, 50) × [10, 50) in pixel edges: unit u ↦ 10 + 40 u − 0.5 at pixel centres
+    to_pixels = np.array([[40.0, 0, 9.5], [0, 40.0, 9.5], [0, 0, 1.0]])
+    img = draw_through(tri, 0.25, to_pixels, (70, 80))
+    assert img.shape == (70, 80) and img.dtype == np.float32
+    assert img[10:50, 10:50].mean() == pytest.approx(0.5, abs=0.02)
+    np.testing.assert_allclose(img[12:20, 12:20], 1.0)  # inside the triangle
+    np.testing.assert_allclose(img[40:48, 40:48], 0.0)  # the dark rest of the data area
+    np.testing.assert_allclose(img[0:10, 0:60], 1.0)  # quiet zone: 10 px above the data area
+    np.testing.assert_allclose(img[:, 61:], 0.0)  # beyond it nothing is drawn
+    # a map that squeezes the tag 8× averages the triangle over each pixel instead of sampling it
+    squeezed = np.array([[40.0, 0, 9.5], [0, 5.0, 9.5], [0, 0, 1.0]])
+    thin = draw_through(tri, 0.25, squeezed, (30, 80))
+    assert 0.3 < thin[12, 10:50].mean() < 0.7 and np.ptp(thin[12, 12:48]) > 0.5
+
+
 def test_the_bank_holds_every_printed_tag_normalized(printed) -> None:
     lookup, _ = printed
     bank = template_bank(lookup, 100_000)
@@ -61,15 +79,18 @@ def test_which_candidates_are_read_by_model() -> None:
     assert wants_model(thin, Rejection("point_count"), _REASONS, p)
     assert wants_model(thin, Rejection("no_triangles"), _REASONS, p)
     assert not wants_model(square, Rejection("point_count"), _REASONS, p)
+    small = Quad("normal", np.array([[0, 0], [20, 0], [20, 20], [0, 20.0]]), 400.0)  # a tag at 7 m
+    assert wants_model(small, Rejection("non_triangle"), _REASONS, p)
+    assert not wants_model(small, Rejection("non_triangle"), _REASONS, DetectorParams(print_check_side_px=0))
     assert not wants_model(thin, Rejection("low_contrast"), _REASONS, p)
     assert not wants_model(thin, Rejection("point_count"), _REASONS, DetectorParams(model_match=False))
 
 
 def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     """The grazing set (80–86°, both polarities): zero wrong IDs, and reading by model adds
-    reads (measured 21/28 with it, 12/28 without; issue 13 asks ≥ 97 %, not reached: the misfit
-    rule that keeps tags missing from the lookup from being read as others refuses some
-    correct readings at 83–86°, see the next test)."""
+    reads (measured 26/28 with it, 12/28 without; issue 13 asks ≥ 97 %, not reached: the
+    rules that keep tags missing from the lookup from being read as others refuse a few correct
+    readings at 84–86°, see the next test)."""
     lookup, tags = printed
     full = Detector(lookup)
     without = Detector(lookup, DetectorParams(model_match=False))
@@ -85,7 +106,7 @@ def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     with capsys.disabled():
         print(f"\ngrazing 80–86°: {ok}/{n} ({by_model} by model), without reading by model {ok_without}/{n}")
     assert wrong == 0
-    assert ok >= 19 and ok >= ok_without + 6
+    assert ok >= 24 and ok >= ok_without + 10
 
 
 def test_tags_missing_from_the_lookup_are_not_read_as_others(printed) -> None:
