@@ -40,6 +40,7 @@ from ottag_db.decode.model_match import read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
+from ottag_db.decode.splitting import FRAME_SEARCH, SearchBudget
 from ottag_db.decode.templates import template_bank
 from ottag_db.decode.types import (
     Detection,
@@ -200,7 +201,7 @@ class Detector:
                 clock.lap("candidates")
                 if skip:
                     continue
-                result = read_quad(gray, quad, self._catalogue, True, clock)
+                result = read_quad(gray, quad, self._catalogue, FRAME_SEARCH, clock)
                 if isinstance(result, Rejection) and result.reason in _RETRY_UPSAMPLED and result.decomposed:
                     result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                 if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
@@ -224,7 +225,7 @@ class Detector:
 
 
 def read_quad(
-    gray: NDArray[np.uint8], quad: Quad, catalogue: Catalogue, alternatives: bool, clock: StageClock
+    gray: NDArray[np.uint8], quad: Quad, catalogue: Catalogue, alternatives: SearchBudget | None, clock: StageClock
 ) -> Detection | Rejection:
     """Read one candidate: segmentation → triangles → refinement → clusters → identification.
 
@@ -236,9 +237,9 @@ def read_quad(
         The candidate (pixels of ``gray``).
     catalogue : Catalogue
         Lookup and settings (lengths in pixels of ``gray``).
-    alternatives : bool
-        Also try the alternative decompositions (opening, slit cuts, strict fits) when the
-        first does not read.
+    alternatives : SearchBudget or None
+        Also try the alternative decompositions (opening, slit cuts, strict fits) within this
+        budget when the first does not read (None: not).
     clock : StageClock
         Charged per stage.
 
@@ -301,7 +302,7 @@ def read_upsampled(
     # pixel centres: up pixel u lies at x = x0 + (u + 0.5) / f − 0.5 of the image
     shift = np.array([x0 + 0.5 / f - 0.5, y0 + 0.5 / f - 0.5])
     clock.lap("upsample")
-    res = read_quad(up, Quad(quad.polarity, (q - shift) * f, quad.area * f * f), catalogue, False, clock)
+    res = read_quad(up, Quad(quad.polarity, (q - shift) * f, quad.area * f * f), catalogue, None, clock)
     if not isinstance(res, Detection):
         return first
     margin = res.margin_px / f

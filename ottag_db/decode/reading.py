@@ -21,6 +21,7 @@ from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.refine import refine
 from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, then_alternatives
+from ottag_db.decode.splitting import SearchBudget
 from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
 
@@ -50,7 +51,7 @@ def read_area(
     quad: Quad,
     params: DetectorParams,
     catalogue: Catalogue,
-    alternatives: bool,
+    alternatives: SearchBudget | None,
     clock: StageClock,
     to_frame: FrameMap | None = None,
     frame_quad: Quad | None = None,
@@ -68,9 +69,9 @@ def read_area(
         pixels).
     catalogue : Catalogue
         Lookup and settings of identification and verification (lengths in frame pixels).
-    alternatives : bool
-        Also try the alternative decompositions (opening, slit cuts, strict fits) when the
-        first does not read.
+    alternatives : SearchBudget or None
+        Also try the alternative decompositions (opening, slit cuts, strict fits) within this
+        budget when the first does not read (None: not).
     clock : StageClock
         Charged per stage.
     to_frame : FrameMap, optional
@@ -94,10 +95,10 @@ def read_area(
     if isinstance(area, Rejection):
         return area, None
     side = area.side
-    decomps = decompose(area.fg, side, params, alternatives=False)
-    if isinstance(decomps, Rejection) and alternatives:
+    decomps = decompose(area.fg, side, params, None)
+    if isinstance(decomps, Rejection) and alternatives is not None:
         # no plain decomposition: try the alternatives (opening, slit cuts) right away
-        decomps = decompose(area.fg, side, params, alternatives=True)
+        decomps = decompose(area.fg, side, params, alternatives)
     clock.lap("triangles")
     if isinstance(decomps, Rejection):
         detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
@@ -108,7 +109,7 @@ def read_area(
         return Rejection("non_triangle", f"{decomps[0].count} triangles"), None
 
     def more() -> list[Decomposition] | Rejection:
-        alts = decompose(area.fg, side, params, alternatives=True) if alternatives else []
+        alts = decompose(area.fg, side, params, alternatives) if alternatives is not None else []
         clock.lap("triangles")
         return alts
 

@@ -34,6 +34,7 @@ from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.reading import read_area, scaled_params
+from ottag_db.decode.splitting import RECTIFIED_SEARCH
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
 __all__ = [
@@ -228,5 +229,7 @@ def _read_view(
     corners refined in the view, mapped to the frame (None when no decomposition was found)."""
     vp = view_params(catalogue.params, view.size / math.sqrt(max(quad.area, 1.0)))
     vquad = Quad(quad.polarity, view.corners, view.size * view.size)
-    result, corners = read_area(view.image, vquad, vp, catalogue, True, clock, to_frame=view, frame_quad=quad)
+    result, corners = read_area(
+        view.image, vquad, vp, catalogue, RECTIFIED_SEARCH, clock, to_frame=view, frame_quad=quad
+    )
     return (result if isinstance(result, Detection) else None), corners

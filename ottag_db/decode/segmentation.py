@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.image import otsu
-from ottag_db.decode.splitting import STRICT_BUDGET, FitBudget, component_decompositions
+from ottag_db.decode.splitting import FitBudget, SearchBudget, component_decompositions
 from ottag_db.decode.triangles import triangle_fit
 from ottag_db.decode.types import DataArea, Decomposition, DetectorParams, Quad, Rejection
 
@@ -86,7 +86,7 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
 
 
 def decompose(
-    fg: NDArray[np.uint8], side: float, params: DetectorParams, alternatives: bool = True
+    fg: NDArray[np.uint8], side: float, params: DetectorParams, alternatives: SearchBudget | None
 ) -> list[Decomposition] | Rejection:
     """Split the bright components of a data area into triangles (contour side chains).
 
@@ -98,11 +98,12 @@ def decompose(
         Data-area side (√area, px): bounds the component areas.
     params : DetectorParams
         Uses ``min_triangle_area_px``.
-    alternatives : bool
-        False: only the first decomposition (cheap; what almost every tag needs). True: each
-        component's first decomposition by the splitter's cuts between concave points, then
-        the 3×3 opening, then slit (notch) cuts; the alternatives of one component at a time
-        are combined with the first ones of the others.
+    alternatives : SearchBudget or None
+        None: only the first decomposition (cheap; what almost every tag needs). Else, within
+        this budget (shared by all components), each component's first decomposition by the
+        splitter's cuts between concave points, then the 3×3 opening, then slit (notch) cuts;
+        the alternatives of one component at a time are combined with the first ones of the
+        others.
 
     Returns
     -------
@@ -118,7 +119,9 @@ def decompose(
     min_area = max(params.min_triangle_area_px, 2e-4 * side * side)
     max_area = 0.45 * side * side  # no triangle of a tag covers half its data area
     options: list[list[list[_F64]]] = []
-    budget = FitBudget(2 * STRICT_BUDGET)  # strict triangle fits of all components together
+    # the alternative searches of all components share one budget
+    notch = None if alternatives is None else FitBudget(alternatives.notch_fits)
+    strict = None if alternatives is None else FitBudget(alternatives.strict_fits)
     for i, c in enumerate(contours):
         if hh[i][3] >= 0 or len(c) < 8:
             continue
@@ -143,7 +146,7 @@ def decompose(
                 pts = bridge(pts, hole)
             child = hh[child][0]
         opening = functools.partial(triangles_by_opening, fg, contours, hier, i)
-        alts = component_decompositions(pts, opening, alternatives, budget)
+        alts = component_decompositions(pts, opening, alternatives, notch, strict)
         if not alts:
             return Rejection("non_triangle")
         options.append(alts)

@@ -16,9 +16,10 @@ from ottag_db.core.single_set import pair_table
 from ottag_db.decode.triangles import off_triangle, triangle_fit, triangle_fit_parts
 
 __all__ = [
-    "NOTCH_BUDGET",
-    "STRICT_BUDGET",
+    "FRAME_SEARCH",
+    "RECTIFIED_SEARCH",
     "FitBudget",
+    "SearchBudget",
     "component_decompositions",
     "notch_cuts",
     "reflex_corners",
@@ -28,10 +29,26 @@ __all__ = [
 _F64 = NDArray[np.float64]
 _Chains = list[_F64]
 
-#: Strict triangle fits one component may cost (bounds the work on non-tags: text, markers).
-STRICT_BUDGET = 80
-#: Triangle fits of one component's search for slit (notch) cuts.
-NOTCH_BUDGET = 400
+
+@dataclass(frozen=True)
+class SearchBudget:
+    """What the alternative decompositions of one data area may cost, in triangle fits of all
+    its components together: the search for slit (notch) cuts, and the strict fits. Bounds the
+    work on non-tags (text, markers), whose notched contours offer thousands of cuts."""
+
+    notch_fits: int
+    strict_fits: int
+
+
+#: The reading of a candidate in the frame. Each component of an ArUco marker or a word offers
+#: slit cuts: with 400 notch fits per component and 160 strict fits, the search took 470 ms
+#: per frame of an ArUco marker; on 1,000 tag frames (grazing views, 4–8 m) the same tags read
+#: with a tenth of this budget, and the rectified view keeps the larger one.
+FRAME_SEARCH = SearchBudget(notch_fits=16, strict_fits=8)
+#: The rectified view of a foreshortened candidate (:mod:`~ottag_db.decode.rectify`): on the
+#: decoder's synthetic tag scenes a component's last decomposition came after at most 330
+#: notch fits (this allows 400 for each of three components).
+RECTIFIED_SEARCH = SearchBudget(notch_fits=1200, strict_fits=160)
 
 
 @dataclass
@@ -51,8 +68,9 @@ class FitBudget:
 def component_decompositions(
     pts: NDArray[Any],
     opening: Callable[[], _Chains | None],
-    alternatives: bool = True,
-    budget: FitBudget | None = None,
+    alternatives: SearchBudget | None = FRAME_SEARCH,
+    notch_budget: FitBudget | None = None,
+    strict_budget: FitBudget | None = None,
 ) -> list[_Chains]:
     """Alternative triangle decompositions of one component contour, most plausible first.
 
@@ -63,11 +81,12 @@ def component_decompositions(
     opening : callable
         The paper's fallback, called at most once: the component's triangles after a 3×3
         opening, or None.
-    alternatives : bool
-        False: only the splitter's first decomposition (or the opening's, if the splitter
-        finds none). True: also the opening, slit cuts and strict fits.
-    budget : FitBudget or None
-        Strict fits left (None: a fresh :data:`STRICT_BUDGET`).
+    alternatives : SearchBudget or None
+        None: only the splitter's first decomposition (or the opening's, if the splitter
+        finds none). Else also the opening, slit cuts and strict fits, within this budget.
+    notch_budget, strict_budget : FitBudget or None
+        Notch and strict fits left, shared with the data area's other components (None: a
+        fresh one of ``alternatives``).
 
     Returns
     -------
@@ -78,7 +97,7 @@ def component_decompositions(
     keys: set[tuple[float, ...]] = set()
 
     def add(chains: _Chains) -> None:
-        if not alternatives:
+        if alternatives is None:
             out.append(chains)  # the first decomposition only: nothing to deduplicate
             return
         key = tuple(sorted(round(float(v), 0) for ch in chains for v in (ch[0, 0], ch[0, 1])))
@@ -90,27 +109,29 @@ def component_decompositions(
     first = whole.chains if whole is not None else next(split_triangles(pts, 0, False, fitted=True), None)
     if first is not None:
         add(first)
-        if not alternatives or (
+        if alternatives is None or (
             whole is not None and off_triangle(whole.contour, whole.corners, 1.5) <= max(3, 0.02 * len(whole.contour))
         ):
             return out  # one triangle: nothing to reconsider
     opened = opening()
     if opened is not None:
         add(opened)
-    if not alternatives:
+    if alternatives is None:
         return out
     # slit cuts: bounded like the strict fits (on the decoder's synthetic tag scenes the last
     # decomposition came after at most 330 fits; the notched contour of a non-tag, e.g. an
     # ArUco marker's cells, took thousands)
-    for alt in itertools.islice(split_triangles(pts, 0, True, budget=FitBudget(NOTCH_BUDGET)), 8):
+    if notch_budget is None:
+        notch_budget = FitBudget(alternatives.notch_fits)
+    for alt in itertools.islice(split_triangles(pts, 0, True, budget=notch_budget), 8):
         add(alt)
         if len(out) >= 4:
             break
     # strict fits: a small triangle hanging at a corner of a large one is not absorbed
-    if budget is None:
-        budget = FitBudget(STRICT_BUDGET)
+    if strict_budget is None:
+        strict_budget = FitBudget(alternatives.strict_fits)
     for tol_px, notch in itertools.product((1.5, 2.5), (False, True)):
-        for strict in itertools.islice(split_triangles(pts, 0, notch, tol_px, budget), 2):
+        for strict in itertools.islice(split_triangles(pts, 0, notch, tol_px, strict_budget), 2):
             add(strict)
     return out
 

@@ -7,6 +7,7 @@ import numpy as np
 
 from ottag_db.decode import DetectorParams
 from ottag_db.decode.segmentation import NO_DECOMPOSITION, bridge, decompose, segment, then_alternatives
+from ottag_db.decode.splitting import FRAME_SEARCH
 from ottag_db.decode.types import DataArea, Decomposition, Quad, Rejection
 from tests.support import synthetic_tags as syn
 
@@ -48,14 +49,14 @@ def test_decompose_two_triangles_and_a_square() -> None:
     image = syn.draw_tags((260, 260), [(200, (30, 30))])
     area = segment(image, _quad(200, (30, 30)), DetectorParams())
     assert isinstance(area, DataArea)
-    decomps = decompose(area.fg, area.side, DetectorParams(), alternatives=False)
+    decomps = decompose(area.fg, area.side, DetectorParams(), None)
     assert isinstance(decomps, list) and len(decomps) == 1 and decomps[0].count == 2
     assert all(ch.ndim == 2 and ch.shape[1] == 2 for ch in decomps[0].chains)
     square = np.zeros((100, 100), np.uint8)
     square[20:70, 20:70] = 255
-    rej = decompose(square, 100.0, DetectorParams())
+    rej = decompose(square, 100.0, DetectorParams(), FRAME_SEARCH)
     assert isinstance(rej, Rejection) and rej.reason == "non_triangle"
-    assert decompose(np.zeros((50, 50), np.uint8), 50.0, DetectorParams()) == [Decomposition(())]
+    assert decompose(np.zeros((50, 50), np.uint8), 50.0, DetectorParams(), FRAME_SEARCH) == [Decomposition(())]
     assert NO_DECOMPOSITION
 
 

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from ottag_db.decode.splitting import (
-    NOTCH_BUDGET,
+    RECTIFIED_SEARCH,
     FitBudget,
     component_decompositions,
     notch_cuts,
@@ -29,7 +29,7 @@ def test_two_triangles_sharing_a_vertex_split_into_two() -> None:
     pts = _contour(a, b)
     first = next(split_triangles(pts, 0, False), None)
     assert first is not None and len(first) == 6
-    alts = component_decompositions(pts, lambda: None, alternatives=False)
+    alts = component_decompositions(pts, lambda: None, alternatives=None)
     assert len(alts) == 1 and len(alts[0]) == 6
 
 
@@ -81,6 +81,6 @@ def test_notch_search_is_bounded() -> None:
     # at the fit budget instead of trying every cut of every half
     teeth = [np.array([[x, 20], [x + 12, 20], [x + 12, 200], [x, 200]]) for x in range(20, 220, 24)]
     pts = _contour(np.array([[20, 190], [220, 190], [220, 220], [20, 220]]), *teeth)
-    budget = FitBudget(NOTCH_BUDGET)
+    budget = FitBudget(RECTIFIED_SEARCH.notch_fits)
     assert list(split_triangles(pts, 0, True, budget=budget)) == []
-    assert 0 <= budget.remaining < NOTCH_BUDGET
+    assert 0 <= budget.remaining < RECTIFIED_SEARCH.notch_fits
