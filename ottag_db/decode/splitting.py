@@ -42,9 +42,10 @@ class SearchBudget:
 
 #: The reading of a candidate in the frame. Each component of an ArUco marker or a word offers
 #: slit cuts: with 400 notch fits per component and 160 strict fits, the search took 470 ms
-#: per frame of an ArUco marker; on 1,000 tag frames (grazing views, 4–8 m) the same tags read
-#: with a tenth of this budget, and the rectified view keeps the larger one.
-FRAME_SEARCH = SearchBudget(notch_fits=16, strict_fits=8)
+#: per frame of an ArUco marker (55 ms with this budget). On 1,000 tag frames (grazing views,
+#: 4–8 m) the same tags read with 16 / 8 fits as with the old budget; one tag of the distance
+#: sweep (benchmarks/decode_sweeps.py, 3.5 m) needs 60 / 20. The rectified view keeps more.
+FRAME_SEARCH = SearchBudget(notch_fits=60, strict_fits=20)
 #: The rectified view of a foreshortened candidate (:mod:`~ottag_db.decode.rectify`): on the
 #: decoder's synthetic tag scenes a component's last decomposition came after at most 330
 #: notch fits (this allows 400 for each of three components).
