@@ -41,8 +41,9 @@ class SearchBudget:
 
 
 #: The reading of a candidate in the frame. Each component of an ArUco marker or a word offers
-#: slit cuts: with 400 notch fits per component and 160 strict fits, the search took 470 ms
-#: per frame of an ArUco marker (55 ms with this budget). On 1,000 tag frames (grazing views,
+#: slit cuts: with 400 notch fits per component and 160 strict fits, the decoder took 250–270
+#: ms per frame on the 100 ArUco frames of benchmarks/decode_speed.py (57–62 ms with this
+#: budget; ArUco itself 3 ms). On 1,000 tag frames (grazing views,
 #: 4–8 m) the same tags read with 16 / 8 fits as with the old budget; one tag of the distance
 #: sweep (benchmarks/decode_sweeps.py, 3.5 m) needs 60 / 20. The rectified view keeps more.
 FRAME_SEARCH = SearchBudget(notch_fits=60, strict_fits=20)

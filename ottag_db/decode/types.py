@@ -263,7 +263,7 @@ class DetectorParams:
       misfit of 0.14 (median; 1 % over 0.31). With the frame's tag removed from the lookup (a
       tag not in a dictionary), the best other tags came within reach in one way at a time:
       every one with ρ ≥ 0.90 misfit by 0.35 or more (1.25 times the limit), every one with
-      a misfit ≤ 0.32 had ρ ≤ 0.90. With these limits none of them is read and 430 of the
+      a misfit ≤ 0.32 had ρ ≤ 0.90. With these limits none of them is read and 439 of the
       480 frames are;
     - ``model_max_templates``: a lookup with more printed tags than this is not read by model
       (the templates take ``4 · 32²`` bytes each, built with the detector).
