@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry, TagLookup
-from ottag_db.decode.placement_check import UNIT_SQUARE
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 
 __all__ = [
     "MODEL_GRID",
@@ -198,9 +198,8 @@ def draw_through(
     q = quiet
     outer = np.array([[-q, -q], [1 + q, -q], [1 + q, 1 + q], [-q, 1 + q]])
     flat = np.concatenate([outer, UNIT_SQUARE, triangles.reshape(-1, 2)])
-    mapped = to_pixels[:, :2] @ flat.T + to_pixels[:, 2:]
     # a pixel's centre p covers [p − 0.5, p + 0.5): supersampled pixel j is centred at (j + 0.5) / s − 0.5
-    px = ((mapped[:2] / mapped[2]).T + 0.5) * supersampling - 0.5
+    px = (apply_homography(to_pixels, flat) + 0.5) * supersampling - 0.5
     fixed = np.round(px * 16).astype(np.int32).reshape(-1, 1, 2)
     canvas = np.zeros((h * supersampling, w * supersampling), dtype=np.uint8)
     cv2.fillPoly(canvas, [fixed[:4]], 255, cv2.LINE_8, 4)
