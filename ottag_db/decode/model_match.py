@@ -229,6 +229,12 @@ def _neighbourhood(gray: NDArray[np.uint8], corners: list[_F64]) -> tuple[_F32, 
     return np.asarray(gray[y0:y1, x0:x1], dtype=np.float32), np.array([x0, y0], dtype=np.float64)
 
 
+def _to_roi(origin: _F64) -> _F64:
+    """The translation from frame pixels to those of a neighbourhood whose pixel (0, 0) lies at
+    frame position ``origin`` (see :func:`_neighbourhood`)."""
+    return np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
+
+
 def _ecc(roi: _F32, origin: _F64, template: _F32, corners: _F64) -> tuple[_F64, _F64] | None:
     """ECC alignment of a refinement template (see :func:`_fine_template`) to the frame, from the
     data-area ``corners``; ``roi`` is the frame around the quad, its pixel (0, 0) at frame
@@ -240,7 +246,7 @@ def _ecc(roi: _F32, origin: _F64, template: _F32, corners: _F64) -> tuple[_F64, 
     b = _FINE_BAND
     step = (1 + 2 * b) / _FINE_GRID
     px_to_unit = np.array([[step, 0, -b + step / 2], [0, step, -b + step / 2], [0, 0, 1.0]])
-    to_roi = np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
+    to_roi = _to_roi(origin)
     warp = (to_roi @ start @ px_to_unit).astype(np.float32)
     try:
         # no mask (the stubs do not list a None mask)
@@ -272,8 +278,7 @@ def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -
     # image, then sampled back like the frame: at a grazing view each pixel averages a long
     # strip of the data area, which a template blurred in data-area units does not model (the
     # correct tag's sliver tips then misfit like a different tag's triangle).
-    to_roi = np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]]) @ to_frame
-    drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, to_roi, (roi.shape[0], roi.shape[1]))
+    drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, _to_roi(origin) @ to_frame, (roi.shape[0], roi.shape[1]))
     if view.polarity == "inverted":
         drawn = np.float32(1.0) - drawn
     drawn = np.asarray(cv2.GaussianBlur(drawn, (0, 0), _CAMERA_BLUR_PX), dtype=np.float32)
