@@ -22,7 +22,9 @@ placement), so the image can *choose among the stored tags* instead (issue 13, s
    tag's sliver tips misfit like another tag's triangle. The best aligned tag is accepted
    only when its correlation inside the data area reaches ``model_min_correlation``, it
    nowhere misfits the image by more than ``model_max_misfit`` (a stored tag that merely
-   resembles the one seen leaves a patch where a triangle differs), and it beats by
+   resembles the one seen leaves a patch where a triangle differs), its quiet zone is as bright
+   or dark as its polarity prints it (``model_max_quiet_misfit``: a dark data area nearly
+   edge-on can pass for the inside of an inverted tag's quiet zone), and it beats by
    ``model_min_gap`` every other refined tag that fits as well; its points are the stored
    realization mapped by the aligned homography, and their order type must be the tag's own
    (a projective map that keeps orientation keeps it).
@@ -76,6 +78,9 @@ _FINE_INSIDE = slice(
     math.ceil(_FINE_BAND / (1 + 2 * _FINE_BAND) * _FINE_GRID) + 1,
     math.floor((1 + _FINE_BAND) / (1 + 2 * _FINE_BAND) * _FINE_GRID) - 1,
 )
+#: The refinement template's cells of the quiet band (the outer 3 of its 4.6 on each side).
+_FINE_BAND_CELLS = np.ones((_FINE_GRID, _FINE_GRID), dtype=bool)
+_FINE_BAND_CELLS[3:-3, 3:-3] = False
 #: The quiet zone assumed when a dark quad is read as an inverted tag's quiet zone (data-area
 #: units, :data:`~ottag_db.printing.geometry.DEFAULT_QUIET_ZONE_RATIO`; ECC corrects a mismatch).
 _INVERTED_QUIET = 0.25
@@ -136,13 +141,16 @@ class _Aligned:
     like the frame. The misfit is the mean absolute residual of the frame against that view
     (scaled to the frame's contrast by least squares) over a window of ``_MISFIT_WINDOW``
     cells, in units of that contrast: a tag that resembles the one seen fits well overall but
-    leaves a patch where a triangle differs."""
+    leaves a patch where a triangle differs. The quiet misfit is the mean absolute residual
+    over the quiet band around the data area, with the scale and offset fitted inside it: the
+    band must be as bright or dark as the reading's polarity prints it."""
 
     row: int
     view: _View
     to_frame: _F64
     correlation: float
     misfit: float
+    quiet_misfit: float
 
 
 def _views(quad: Quad, params: DetectorParams) -> list[_View]:
@@ -294,7 +302,13 @@ def _align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: _View) -
     resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
     local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
     misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
-    return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit)
+    # the quiet band under the same scale and offset: as bright (normal) or dark (inverted) as
+    # the print, where the data area alone can pass for the other polarity's
+    band = _FINE_BAND_CELLS
+    seen_band = np.asarray(seen, dtype=np.float32)[band]
+    quiet = np.abs(seen_band - (coef[0] * np.asarray(expected, dtype=np.float32)[band] + coef[1]))
+    quiet_misfit = float(quiet.mean() / max(abs(float(coef[0])), 1e-6))
+    return _Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit)
 
 
 def read_model(
@@ -319,7 +333,8 @@ def read_model(
     bank : TemplateBank
         The lookup's printed tags.
     params : DetectorParams
-        ``model_min_correlation``, ``model_min_gap``, ``polarities``.
+        ``model_min_correlation``, ``model_min_gap``, ``model_max_misfit``,
+        ``model_max_quiet_misfit``, ``polarities``.
     clock : StageClock
         Charged as ``"model"``.
 
@@ -365,23 +380,30 @@ def read_model(
         return first
     aligned.sort(key=lambda a: -a.correlation)
     top = aligned[0]
-    limit = params.model_max_misfit
+    limit, quiet_limit = params.model_max_misfit, params.model_max_quiet_misfit
     # the next best reading of another tag (ID or polarity) that fits as well: a rival that
-    # misfits somewhere is explained away; a candidate ECC lost counts with its coarse score,
-    # so that a failed alignment cannot make the winner look unrivalled
+    # misfits somewhere, or whose quiet zone is not there, is explained away; a candidate ECC
+    # lost counts with its coarse score, so that a failed alignment cannot make the winner look
+    # unrivalled
     key = (bank.entries[top.row].lambda_text, top.view.polarity)
     rivals = [
         a.correlation
         for a in aligned
-        if (bank.entries[a.row].lambda_text, a.view.polarity) != key and a.misfit <= limit
+        if (bank.entries[a.row].lambda_text, a.view.polarity) != key
+        and a.misfit <= limit
+        and a.quiet_misfit <= quiet_limit
     ]
     runner_up = max(rivals + unaligned, default=-1.0)
-    note = f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}, misfit {top.misfit:.2f}"
+    note = (
+        f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}, misfit {top.misfit:.2f},"
+        f" quiet zone {top.quiet_misfit:.2f}"
+    )
     note = note.lstrip("; ")
     if (
         top.correlation < params.model_min_correlation
         or top.correlation - runner_up < params.model_min_gap
         or top.misfit > limit
+        or top.quiet_misfit > quiet_limit
     ):
         return Rejection(first.reason, note, first.lambda_text, first.decomposed)
     result = _detection(bank, top, quad)

@@ -5,9 +5,20 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ottag_db.decode import DetectorParams
-from ottag_db.decode.candidates import around_detection, clockwise, find_quads, same_quad, same_tag, shows_print
+from ottag_db.decode.candidates import (
+    around_detection,
+    clockwise,
+    find_quads,
+    same_quad,
+    same_tag,
+    shows_print,
+    squeeze,
+)
 from ottag_db.decode.types import Detection, Quad
 from tests.support import synthetic_tags as syn
 
@@ -68,3 +79,13 @@ def test_readings_must_show_the_print_at_oblique_views_and_on_small_data_areas()
     assert not shows_print(square(40.0), p)  # head-on and large enough: other programs' tags read
     assert not shows_print(square(24.0), replace(p, print_check_side_px=0.0))
     assert not shows_print(thin, replace(p, layout_check_ratio=0.0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-500, 500, allow_nan=False), min_size=8, max_size=8))
+def test_squeeze_is_the_singular_value_ratio_of_the_diagonals(coords: list[float]) -> None:
+    """The closed form equals numpy's SVD of the 2×2 matrix of the diagonals."""
+    q = np.array(coords).reshape(4, 2)
+    sv = np.linalg.svd(np.stack([q[2] - q[0], q[3] - q[1]], axis=1), compute_uv=False)
+    expected = sv[1] / sv[0] if sv[0] > 1e-9 else 0.0
+    assert squeeze(Quad("normal", q, 1.0)) == pytest.approx(expected, abs=1e-6)
