@@ -71,6 +71,11 @@ def identify(
         :func:`~ottag_db.decode.verify.verify`. A reading under ``min_margin_px`` is
         soft-decoded (with ``verify`` and ``soft_max_flips`` > 0): a detection then has
         ``corrected_flips`` set, a refusal is ``"low_margin"`` with the reason in its detail.
+        The detected triangles must be the ID's printed layout (when the lookup knows it) at
+        oblique or small views (:func:`~ottag_db.decode.candidates.shows_print`), and also
+        when the verified points lie farther than the reprojection bound from where the fit
+        puts them (they fit only along their side lines); the points must then also lie where
+        the stored placement prints them.
     """
     p = catalogue.params
     k = len(pts)
@@ -98,14 +103,38 @@ def identify(
     member = for_polarity(entry, quad.polarity, lam)
     if isinstance(member, Rejection):
         return member
-    if member.layouts and shows_print(quad, p):
+    printed_only = member.layouts and shows_print(quad, p)
+    if printed_only:
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is None:
             detail = "oblique or small view: the detected triangles are not this tag's layout"
             return Rejection("verification", detail, lam)
         member, minimal = printed
     clock.lap("identify")
-    result = verify(member, pts, lines, minimal, corners, quad, table.margin, lam, p)
+    checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p)
+    result = checked.result
+    if (
+        isinstance(result, Detection)
+        and member.layouts
+        and not printed_only
+        and result.reprojection_error_px is not None
+        and result.reprojection_error_px > checked.bound
+    ):
+        # The points fit the lines through them but lie farther than the bound from where the
+        # fit puts them (ill-conditioned vertices, e.g. a sliver tip): how a tag that lost a
+        # vertex also reads as a type of fewer points. Such a reading must show that type as
+        # printed, layout and placement, as at oblique views (8-point tags at 43° and 53° read
+        # as 7-point types).
+        printed = _as_printed(member, minimal, observed_triangles(lines))
+        if printed is None:
+            detail = (
+                f"points {result.reprojection_error_px:.2f} px off the fit (bound {checked.bound:.2f} px):"
+                " the detected triangles are not this tag's layout"
+            )
+            result = Rejection("verification", detail, lam)
+        else:
+            member, minimal = printed
+            result = verify(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=True)
     clock.lap("verify")
     return result
 

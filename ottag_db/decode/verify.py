@@ -249,12 +249,13 @@ def verify(
     margin: float,
     lambda_text: str,
     params: DetectorParams,
+    printed: bool = False,
 ) -> Detection | Rejection:
     """Check a reading against the stored realizations of its order type.
 
     The :attr:`Assessment.result` of :func:`assess`.
     """
-    return assess(entry, pts, lines, minimal, corners, quad, margin, lambda_text, params).result
+    return assess(entry, pts, lines, minimal, corners, quad, margin, lambda_text, params, printed).result
 
 
 def assess(
@@ -267,6 +268,7 @@ def assess(
     margin: float,
     lambda_text: str,
     params: DetectorParams,
+    printed: bool = False,
 ) -> Assessment:
     """Check a reading against the stored realizations of its order type, with its fit error.
 
@@ -296,6 +298,9 @@ def assess(
         The ID read.
     params : DetectorParams
         Uses ``verify``, ``max_reproj_px``/``_rel``, ``check_quad``, ``max_quad_error``.
+    printed : bool
+        The points must lie where the stored placement prints them at any view, not only at
+        oblique or small ones (:func:`~ottag_db.decode.candidates.shows_print`).
 
     Returns
     -------
@@ -325,8 +330,9 @@ def assess(
             detail = f"reprojection error {min(f.err for f in fits):.2f} px > {bound:.2f} px"
             return Assessment(Rejection("verification", detail, lambda_text), error, bound)
         # Only at oblique views and on small data areas (where lost vertices fit other order
-        # types): a tag drawn by another program with its own placement still reads head-on.
-        if shows_print(quad, p) and entry.placements and system is not None:  # (there are fits: system is not None)
+        # types), or when the caller asks: a tag drawn by another program with its own
+        # placement still reads head-on. (There are fits, so system is not None.)
+        if (printed or shows_print(quad, p)) and entry.placements and system is not None:
             placed = _placed(entry, passing, system, corners, bound)
             if isinstance(placed, str):
                 return Assessment(Rejection("verification", placed, lambda_text), error, bound)
