@@ -49,9 +49,10 @@ class SearchBudget:
 FRAME_SEARCH = SearchBudget(notch_fits=60, strict_fits=20)
 #: The rectified view of a foreshortened candidate (:mod:`~ottag_db.decode.rectify`). With
 #: 1,200 notch / 160 strict fits (400 for each of three components, as before the budget was
-#: shared) an ArUco marker seen at 76–88° cost 350 ms per frame, 260 of them here; with this
-#: budget 220 ms. The tags read the same on 480 grazing frames (78–86°) and on the tilt
-#: sweep's 600 frames at 60–89° (benchmarks/decode_sweeps.py), and also with 100 / 30 fits.
+#: shared) an ArUco marker seen at 76–88° cost 350–450 ms per frame, 260–315 of them here;
+#: with this budget 220–310 ms (two runs of 80 frames). The tags read the same on 480 grazing
+#: frames (78–86°) and on the tilt sweep's 600 frames at 60–89° (benchmarks/decode_sweeps.py),
+#: and also with 100 / 30 fits.
 RECTIFIED_SEARCH = SearchBudget(notch_fits=300, strict_fits=60)
 
 

@@ -227,8 +227,9 @@ class DetectorParams:
       readings with lost vertices whose triangles do match. Head-on, tags drawn by other
       programs (other triangles, another placement) still read, unless their points fit only
       along their side lines (each farther than the bound from where the fit puts it): then
-      the layout is checked at any view (an inverted 8-point tag 70 px wide at 53° that lost a
-      sliver tip read as a 7-point type with its points 1.8–2.7 px off the fit, bound 1.5 px);
+      layout and placement are checked at any view (an inverted 8-point tag 70 px wide at 53°
+      that lost a sliver tip read as a 7-point type with its points 1.8–2.7 px off the fit,
+      bound 1.5 px);
       ``print_check_side_px``: both checks also apply to data areas whose side
       (``sqrt(area)``) is under this, px: at 21–24 px wide, 8-point tags with a vertex lost in
       a blurred corner read as 6- or 7-point types at full margin (benchmarks/decode_sweeps.py,
