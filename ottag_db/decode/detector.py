@@ -225,7 +225,12 @@ class Detector:
 
 
 def read_quad(
-    gray: NDArray[np.uint8], quad: Quad, catalogue: Catalogue, alternatives: SearchBudget | None, clock: StageClock
+    gray: NDArray[np.uint8],
+    quad: Quad,
+    catalogue: Catalogue,
+    alternatives: SearchBudget | None,
+    clock: StageClock,
+    print_required: frozenset[str] = frozenset(),
 ) -> Detection | Rejection:
     """Read one candidate: segmentation → triangles → refinement → clusters → identification.
 
@@ -242,6 +247,9 @@ def read_quad(
         budget when the first does not read (None: not).
     clock : StageClock
         Charged per stage.
+    print_required : frozenset of str, optional
+        IDs an earlier reading of the candidate refused as not printed
+        (:attr:`~ottag_db.decode.types.Rejection.not_printed`).
 
     Returns
     -------
@@ -250,7 +258,7 @@ def read_quad(
         reads with its points within the reprojection bound (else the best-fitting reading),
         else the most telling rejection.
     """
-    return read_area(gray, quad, catalogue.params, catalogue, alternatives, clock)[0]
+    return read_area(gray, quad, catalogue.params, catalogue, alternatives, clock, print_required=print_required)[0]
 
 
 def read_upsampled(
@@ -284,7 +292,8 @@ def read_upsampled(
     Returns
     -------
     Detection or Rejection
-        The detection in frame pixels, or ``first``.
+        The detection in frame pixels, or ``first`` (with the IDs this reading refused as not
+        printed in its ``not_printed``).
     """
     side = math.sqrt(quad.area)
     if side > _UPSAMPLE_MAX_SIDE:
@@ -302,9 +311,10 @@ def read_upsampled(
     # pixel centres: up pixel u lies at x = x0 + (u + 0.5) / f − 0.5 of the image
     shift = np.array([x0 + 0.5 / f - 0.5, y0 + 0.5 / f - 0.5])
     clock.lap("upsample")
-    res = read_quad(up, Quad(quad.polarity, (q - shift) * f, quad.area * f * f), catalogue, None, clock)
+    up_quad = Quad(quad.polarity, (q - shift) * f, quad.area * f * f)
+    res = read_quad(up, up_quad, catalogue, None, clock, first.not_printed)
     if not isinstance(res, Detection):
-        return first
+        return replace(first, not_printed=res.not_printed)  # what this reading refused too
     margin = res.margin_px / f
     if margin < min_margin_px and res.corrected_flips is None:  # soft decoding decided already
         return first

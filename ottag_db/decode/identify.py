@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -44,7 +45,13 @@ class Catalogue:
 
 
 def identify(
-    pts: _F64, lines: SideLines, corners: _F64, quad: Quad, catalogue: Catalogue, clock: StageClock
+    pts: _F64,
+    lines: SideLines,
+    corners: _F64,
+    quad: Quad,
+    catalogue: Catalogue,
+    clock: StageClock,
+    print_required: AbstractSet[str] = frozenset(),
 ) -> Detection | Rejection:
     """ID, lookup and verification of one point hypothesis.
 
@@ -62,6 +69,9 @@ def identify(
         Lookup, its point counts and the settings.
     clock : StageClock
         Charged with ``"identify"`` and ``"verify"`` time.
+    print_required : set of str, optional
+        IDs that must show their tag as printed (layout and placement) at any view: those an
+        earlier reading of the same data area was refused as not printed.
 
     Returns
     -------
@@ -103,15 +113,24 @@ def identify(
     member = for_polarity(entry, quad.polarity, lam)
     if isinstance(member, Rejection):
         return member
-    printed_only = member.layouts and shows_print(quad, p)
+    required = lam in print_required
+    printed_only = member.layouts and (required or shows_print(quad, p))
     if printed_only:
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is None:
-            detail = "oblique or small view: the detected triangles are not this tag's layout"
-            return Rejection("verification", detail, lam)
+            view = "refused as not printed before" if required else "oblique or small view"
+            detail = f"{view}: the detected triangles are not this tag's layout"
+            return Rejection("verification", detail, lam, not_printed=frozenset({lam}))
         member, minimal = printed
+    elif member.layouts and len(minimal) > 1:
+        # A symmetric order type: its labelings read the same ID with the tag turned. Head-on
+        # the print need not be there (tags drawn by other programs), but where its triangles
+        # are they tell the labelings apart (the placement, in verification, too).
+        printed = _as_printed(member, minimal, observed_triangles(lines))
+        if printed is not None:
+            member, minimal = printed
     clock.lap("identify")
-    checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p)
+    checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=required)
     result = checked.result
     if (
         isinstance(result, Detection)
@@ -131,7 +150,7 @@ def identify(
                 f"points {result.reprojection_error_px:.2f} px off the fit (bound {checked.bound:.2f} px):"
                 " the detected triangles are not this tag's layout"
             )
-            result = Rejection("verification", detail, lam)
+            result = Rejection("verification", detail, lam, not_printed=frozenset({lam}))
         else:
             member, minimal = printed
             result = verify(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=True)

@@ -111,9 +111,8 @@ def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], par
         too.
     params : DetectorParams
         ``model_match`` (False turns the stage off); only quads foreshortened to at most
-        ``rectify_max_ratio`` and data areas smaller than ``print_check_side_px`` (where a
-        reading must show the tag as printed anyway, see
-        :func:`~ottag_db.decode.candidates.shows_print`) are read by model.
+        ``rectify_max_ratio`` and data areas with a side under ``model_max_side_px`` are read
+        by model.
 
     Returns
     -------
@@ -121,7 +120,7 @@ def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], par
     """
     if not params.model_match or not (first.reason in retry_reasons or first.reason == "no_triangles"):
         return False
-    return squeeze(quad) <= params.rectify_max_ratio or math.sqrt(quad.area) < params.print_check_side_px
+    return squeeze(quad) <= params.rectify_max_ratio or math.sqrt(quad.area) < params.model_max_side_px
 
 
 @dataclass(frozen=True)

@@ -55,6 +55,7 @@ def read_area(
     clock: StageClock,
     to_frame: FrameMap | None = None,
     frame_quad: Quad | None = None,
+    print_required: frozenset[str] = frozenset(),
 ) -> tuple[Detection | Rejection, _F64 | None]:
     """Read the data area of ``quad`` in ``image``; identify each point hypothesis in the frame.
 
@@ -79,6 +80,10 @@ def read_area(
         (points are identified as measured).
     frame_quad : Quad, optional
         The candidate in frame pixels, as identification reports it (``quad`` when None).
+    print_required : frozenset of str, optional
+        IDs an earlier reading of this data area was refused as because they were not shown
+        as printed (:attr:`Rejection.not_printed`): read here, they must show the tag as
+        printed, layout and placement, at any view.
 
     Returns
     -------
@@ -93,7 +98,7 @@ def read_area(
     area = segment(image, quad, params)
     clock.lap("segmentation")
     if isinstance(area, Rejection):
-        return area, None
+        return replace(area, not_printed=print_required), None
     side = area.side
     decomps = decompose(area.fg, side, params, None)
     if isinstance(decomps, Rejection) and alternatives is not None:
@@ -102,11 +107,11 @@ def read_area(
     clock.lap("triangles")
     if isinstance(decomps, Rejection):
         detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
-        return Rejection(decomps.reason, detail, decomposed=False), None
+        return Rejection(decomps.reason, detail, decomposed=False, not_printed=print_required), None
     if not decomps or decomps[0].count == 0:
-        return Rejection("no_triangles"), None
+        return Rejection("no_triangles", not_printed=print_required), None
     if decomps[0].count > MAX_TRIANGLES:
-        return Rejection("non_triangle", f"{decomps[0].count} triangles"), None
+        return Rejection("non_triangle", f"{decomps[0].count} triangles", not_printed=print_required), None
 
     def more() -> list[Decomposition] | Rejection:
         alts = decompose(area.fg, side, params, alternatives) if alternatives is not None else []
@@ -117,6 +122,11 @@ def read_area(
     tol = max(params.merge_radius_px, params.merge_radius_rel * side)
     sure = max(2 * params.merge_radius_px, 2 * params.merge_radius_rel * side)
     first: Rejection | None = None
+    # IDs refused as not printed (layout or placement): another decomposition or clustering of
+    # the same data area must show them as printed too (an 8-point tag 59 px wide at 43° whose
+    # two triangles merged read as a 7-point type, refused 21 px off its placement, and then
+    # as the same type by the next decomposition, 1.4 px off the fit, within the bound)
+    not_printed = print_required
     corners_l: _F64 | None = None
     corners = quad.corners  # replaced by the refined corners before any identification
     for dec in then_alternatives(decomps, more):
@@ -150,7 +160,7 @@ def read_area(
             if to_frame is not None:
                 pts = to_frame.points_to_frame(pts)
             lines = [(normal[ids], offset[ids]) for ids in hyp.line_ids]
-            result = identify(pts, lines, corners, frame_quad or quad, catalogue, clock)
+            result = identify(pts, lines, corners, frame_quad or quad, catalogue, clock, not_printed)
             clock.lap("identify")
             if isinstance(result, Detection):
                 if _points_fit(result, frame_quad or quad, catalogue.params):
@@ -158,11 +168,13 @@ def read_area(
                 if loose is None or _point_error(result) < _point_error(loose):
                     loose = result
                 continue
+            not_printed |= result.not_printed
             if first is None or first.reason == "non_triangle":
                 first = result
         if loose is not None:
             return loose, corners
-    return (first if first is not None else Rejection("non_triangle", "degenerate vertex")), corners
+    refusal = first if first is not None else Rejection("non_triangle", "degenerate vertex")
+    return replace(refusal, not_printed=not_printed), corners
 
 
 def _point_error(det: Detection) -> float:

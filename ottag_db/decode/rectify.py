@@ -212,7 +212,7 @@ def read_rectified(
         clock.lap("rectify")
         if view is None:
             return first
-        result, refined = _read_view(view, quad, catalogue, clock)
+        result, refined = _read_view(view, quad, catalogue, clock, first.not_printed)
         if isinstance(result, Detection):
             return result
         # the corners refined in this view give a better homography for the next pass
@@ -223,13 +223,15 @@ def read_rectified(
 
 
 def _read_view(
-    view: RectifiedView, quad: Quad, catalogue: Catalogue, clock: StageClock
+    view: RectifiedView, quad: Quad, catalogue: Catalogue, clock: StageClock, print_required: frozenset[str]
 ) -> tuple[Detection | None, _F64 | None]:
     """The first reading of ``view`` that identifies in frame pixels (or None), and the data-area
-    corners refined in the view, mapped to the frame (None when no decomposition was found)."""
+    corners refined in the view, mapped to the frame (None when no decomposition was found).
+    ``print_required``: the IDs earlier readings of the candidate refused as not printed."""
     vp = view_params(catalogue.params, view.size / math.sqrt(max(quad.area, 1.0)))
     vquad = Quad(quad.polarity, view.corners, view.size * view.size)
     result, corners = read_area(
-        view.image, vquad, vp, catalogue, RECTIFIED_SEARCH, clock, to_frame=view, frame_quad=quad
-    )
+        view.image, vquad, vp, catalogue, RECTIFIED_SEARCH, clock, to_frame=view, frame_quad=quad,
+        print_required=print_required,
+    )  # fmt: skip
     return (result if isinstance(result, Detection) else None), corners

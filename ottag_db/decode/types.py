@@ -233,9 +233,11 @@ class DetectorParams:
       ``print_check_side_px``: both checks also apply to data areas whose side
       (``sqrt(area)``) is under this, px: at 21–24 px wide, 8-point tags with a vertex lost in
       a blurred corner read as 6- or 7-point types at full margin (benchmarks/decode_sweeps.py,
-      6–7 m, issue 13); 0 turns this off (see
-      :func:`~ottag_db.decode.candidates.shows_print`). Such data areas are also read by
-      model when nothing else reads them.
+      6–7 m, issue 13), and 8-point tags of side 49–61 px at 43–48° whose two triangles
+      merged read as 7-point types, their points within the bound (3 wrong IDs in 2,100
+      frames of the benchmarks/soft_decoding.py scenes, seeds 2–8); with the checks at any size
+      the same frames read the same tags and none of the three; 0 turns this off (see
+      :func:`~ottag_db.decode.candidates.shows_print`);
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
     ``min_margin_px``:
@@ -253,11 +255,13 @@ class DetectorParams:
       this fraction of the bound (see the value's comment).
 
     Reading by model (:mod:`ottag_db.decode.model_match`), the last resort for a foreshortened
-    candidate (``rectify_max_ratio``) or a small one (``print_check_side_px``) that no reading
+    candidate (``rectify_max_ratio``) or a small one (``model_max_side_px``) that no reading
     decoded:
 
     - ``model_match``: choose among the lookup's printed tags (stored realization, layout and
       placement) by projecting each through the quad and aligning the best to the image;
+    - ``model_max_side_px``: data areas whose side (``sqrt(area)``) is under this, px, are
+      read by model at any view (at 6–8 m, 21 cm tags are 18–24 px wide);
     - ``model_min_correlation``: the aligned tag's correlation with the image (both inside the
       data area; the tag drawn into the frame with a camera's blur) must reach this;
     - ``model_min_gap``: … and exceed by this every other refined tag's that also stays within
@@ -308,7 +312,7 @@ class DetectorParams:
     rectify: bool = True
     rectify_max_ratio: float = 0.5
     layout_check_ratio: float = 0.5
-    print_check_side_px: float = 32.0
+    print_check_side_px: float = 64.0
     soft_max_flips: int = 2
     soft_max_triples: int = 6
     #: 0.35 of the bound (0.53 px at the 1.5 px floor, 2–5 times the 0.1–0.3 px vertex noise).
@@ -319,6 +323,7 @@ class DetectorParams:
     #: 0.35 keeps 202 of the 216 correct ones.
     soft_min_fit_gap: float = 0.35
     model_match: bool = True
+    model_max_side_px: float = 32.0
     model_min_correlation: float = 0.92
     model_min_gap: float = 0.08
     model_max_misfit: float = 0.28
@@ -360,13 +365,18 @@ class Rejection:
     """Why a stage stopped reading a candidate (converted to :class:`Rejected` by the detector).
 
     ``decomposed`` is False when no triangle decomposition of the data area was found at all
-    (the detector then does not retry the candidate upsampled).
+    (the detector then does not retry the candidate upsampled). ``not_printed`` holds the IDs
+    a reading of the data area was refused as because the detected triangles or points are not
+    that tag as printed (its stored layout or placement): the data area's other readings of
+    those IDs (other decompositions, the upsampled and rectified views) must then show them as
+    printed too (:func:`~ottag_db.decode.reading.read_area`).
     """
 
     reason: RejectReason
     detail: str = ""
     lambda_text: str | None = None
     decomposed: bool = True
+    not_printed: frozenset[str] = frozenset()
 
     def at(self, quad: Quad) -> Rejected:
         """The public :class:`Rejected` of this rejection for the candidate ``quad``."""

@@ -335,8 +335,16 @@ def assess(
         if (printed or shows_print(quad, p)) and entry.placements and system is not None:
             placed = _placed(entry, passing, system, corners, bound)
             if isinstance(placed, str):
-                return Assessment(Rejection("verification", placed, lambda_text), error, bound)
+                refusal = Rejection("verification", placed, lambda_text, not_printed=frozenset({lambda_text}))
+                return Assessment(refusal, error, bound)
             passing = placed
+        elif len(passing) > 1 and entry.placements and system is not None:
+            # Head-on the print need not be there, but where it is it tells several fits apart:
+            # the labelings of a symmetric order type fit equally well with the tag turned
+            # (8-point tags at 4–8 m read with their corners a quarter turn off).
+            placed = _placed(entry, passing, system, corners, bound)
+            if not isinstance(placed, str):
+                passing = placed
         if p.check_quad:
             fits = [f for f in passing if f.par <= p.max_quad_error]
             if not fits:

@@ -76,7 +76,8 @@ def test_readings_must_show_the_print_at_oblique_views_and_on_small_data_areas()
     p = DetectorParams()
     assert shows_print(thin, p)  # foreshortened to 0.2
     assert shows_print(square(24.0), p)  # a tag at 6–7 m
-    assert not shows_print(square(40.0), p)  # head-on and large enough: other programs' tags read
+    assert shows_print(square(50.0), p)  # where two triangles of an 8-point tag can merge
+    assert not shows_print(square(80.0), p)  # head-on and large enough: other programs' tags read
     assert not shows_print(square(24.0), replace(p, print_check_side_px=0.0))
     assert not shows_print(thin, replace(p, layout_check_ratio=0.0))
 

@@ -81,7 +81,7 @@ def test_which_candidates_are_read_by_model() -> None:
     assert not wants_model(square, Rejection("point_count"), _REASONS, p)
     small = Quad("normal", np.array([[0, 0], [20, 0], [20, 20], [0, 20.0]]), 400.0)  # a tag at 7 m
     assert wants_model(small, Rejection("non_triangle"), _REASONS, p)
-    assert not wants_model(small, Rejection("non_triangle"), _REASONS, DetectorParams(print_check_side_px=0))
+    assert not wants_model(small, Rejection("non_triangle"), _REASONS, DetectorParams(model_max_side_px=0))
     # not a quad without contrast inside: thin dark strips in clutter are such quads (on the
     # frames of benchmarks/decode_speed.py, one in four frames has one, 10–90 ms each by model)
     assert not wants_model(thin, Rejection("low_contrast"), _REASONS, p)
