@@ -234,9 +234,10 @@ class DetectorParams:
       (``sqrt(area)``) is under this, px: at 21–24 px wide, 8-point tags with a vertex lost in
       a blurred corner read as 6- or 7-point types at full margin (benchmarks/decode_sweeps.py,
       6–7 m, issue 13), and 8-point tags of side 49–61 px at 43–48° whose two triangles
-      merged read as 7-point types, their points within the bound (3 wrong IDs in 2,100
-      frames of the benchmarks/soft_decoding.py scenes, seeds 2–8); with the checks at any size
-      the same frames read the same tags and none of the three; 0 turns this off (see
+      merged read as 7-point types, their points within the bound (3 wrong IDs in 1,800
+      frames of the benchmarks/soft_decoding.py scenes, seeds 2–7, soft decoding off); with the
+      checks at every size those frames read the same tags and none of the three; 0 turns this
+      off (see
       :func:`~ottag_db.decode.candidates.shows_print`);
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below

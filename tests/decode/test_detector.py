@@ -406,3 +406,36 @@ def test_a_symmetric_order_type_reads_with_the_corners_as_printed(bundled):
             turned.append(tag)
     assert all(_half_turn_symmetric(t) for t in turned)
     assert len(turned) <= 2
+
+
+@pytest.mark.parametrize(
+    ("prefix", "polarity", "hom", "blur"),
+    [
+        (
+            "8:065432100012435615035214243043233212044543",
+            "normal",
+            [[34.466504, -39.568695, 289.448896], [70.638663, 25.277692, 219.536344], [0.05897, -0.078159, 1]],
+            0.6,
+        ),
+        (
+            "8:065432100013245615041352232033443453023142",
+            "inverted",
+            [[-16.552683, -40.173911, 321.244984], [2.900881, -38.493696, 227.396879], [-0.064872, -0.023375, 1]],
+            0.3,
+        ),
+    ],
+)
+def test_a_small_steep_tag_is_not_read_by_model_as_a_look_alike(bundled, prefix, polarity, hom, blur):
+    """8-point tags 72 px wide at 73° and 51 px at 79° (the scenes of
+    benchmarks/soft_decoding.py, seed 8): the coarse match ranks the tag seen only 11th, and
+    a look-alike among the three refined won unrivalled (ρ 0.96, misfit 0.24–0.25), on 6 of 6
+    renders each. The coarse match again, with the data area where the winner's alignment puts
+    it, ranks the tag seen among the first three: aligned, it is a rival (ρ 0.97–0.99), and
+    neither reads."""
+    lookup, records = bundled
+    tag = next(t for t in records if t.lambda_text.startswith(prefix))
+    det = Detector(lookup)
+    for seed in range(2):
+        spec = sc.TagSpec(tag.points, tag.triangles, np.array(hom), polarity, placement=tag.placement)
+        image = sc.render_scene((480, 640), [spec], np.random.default_rng(seed), blur=blur, noise=2.0, jpeg=85).image
+        assert [d.lambda_text for d in det.detect(image) if d.lambda_text != tag.lambda_text] == []

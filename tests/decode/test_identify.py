@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from ottag_db.core.lookup import MemoryLookup
@@ -77,3 +79,19 @@ def test_low_margin_without_verification_is_rejected() -> None:
     pts, lines, corners, quad = _setup()
     res = identify(pts, lines, corners, quad, _catalogue(syn.lookup(), min_margin_px=1e6, verify=False), StageClock())
     assert isinstance(res, Rejection) and res.reason == "low_margin" and res.lambda_text == syn.lambda_text()
+
+
+def test_an_id_refused_as_not_printed_must_show_its_print_at_any_view() -> None:
+    """Head-on and large, a tag drawn with other triangles than the stored ones reads; once a
+    reading of the data area was refused as not showing that ID as printed, it must show it."""
+    pts, lines, corners, quad = _setup()
+    entry = syn.lookup().get(syn.lambda_text())
+    assert entry is not None
+    elsewhere = replace(entry, layouts=(((0, 1, 2),),))  # triangles this drawing does not have
+    cat = _catalogue(MemoryLookup([elsewhere]))
+    assert isinstance(identify(pts, lines, corners, quad, cat, StageClock()), Detection)
+    rej = identify(pts, lines, corners, quad, cat, StageClock(), frozenset({syn.lambda_text()}))
+    assert isinstance(rej, Rejection) and rej.reason == "verification"
+    assert rej.not_printed == frozenset({syn.lambda_text()})
+    other = identify(pts, lines, corners, quad, cat, StageClock(), frozenset({"8:0"}))
+    assert isinstance(other, Detection)  # only the IDs refused before

@@ -1,0 +1,199 @@
+"""Alignment stage of reading by model: a stored tag aligned to the frame by ECC and judged
+against the frame as a camera would see it (:mod:`~ottag_db.decode.model_match` decides).
+
+A tag is aligned from a view of the candidate (data-area corners in tag order, polarity) with a
+refinement template of its data area and a band of its quiet zone (:func:`fine_template`,
+:func:`ecc`); :func:`judge` then draws the tag into the frame through a homography, blurs it
+like a camera image and samples it back like the frame, and scores correlation, local misfit
+and the quiet band (:class:`Aligned`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.core.types import Polarity
+from ottag_db.decode.placement_check import square_homography
+from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
+
+__all__ = ["INVERTED_QUIET", "Aligned", "View", "align", "ecc", "fine_template", "judge", "neighbourhood", "to_roi"]
+
+_F64 = NDArray[np.float64]
+_F32 = NDArray[np.float32]
+
+#: Side of the refinement templates, px, and the quiet-zone band they include (data-area
+#: units on each side; within the 0.25 quiet zone ``export`` prints).
+_FINE_GRID = 48
+_FINE_BAND = 0.12
+#: The refinement template's cells inside the data area (a cell's width off its edge).
+_FINE_INSIDE = slice(
+    math.ceil(_FINE_BAND / (1 + 2 * _FINE_BAND) * _FINE_GRID) + 1,
+    math.floor((1 + _FINE_BAND) / (1 + 2 * _FINE_BAND) * _FINE_GRID) - 1,
+)
+#: Refinement-template pixels (centres) → data-area units.
+_FINE_STEP = (1 + 2 * _FINE_BAND) / _FINE_GRID
+_FINE_PX_TO_UNIT = np.array(
+    [[_FINE_STEP, 0, -_FINE_BAND + _FINE_STEP / 2], [0, _FINE_STEP, -_FINE_BAND + _FINE_STEP / 2], [0, 0, 1.0]]
+)
+#: The refinement template's cells of the quiet band (the outer 3 of its 4.6 on each side).
+_FINE_BAND_CELLS = np.ones((_FINE_GRID, _FINE_GRID), dtype=bool)
+_FINE_BAND_CELLS[3:-3, 3:-3] = False
+#: The quiet zone assumed when a dark quad is read as an inverted tag's quiet zone (data-area
+#: units, :data:`~ottag_db.printing.geometry.DEFAULT_QUIET_ZONE_RATIO`; ECC corrects a mismatch).
+INVERTED_QUIET = 0.25
+#: Side of the window (refinement-template cells, 1/10 of the data area) over which the
+#: aligned tag's local misfit is averaged (see :class:`Aligned`).
+_MISFIT_WINDOW = 4
+#: Gaussian σ (frame pixels) of the camera blur the tag is drawn with when it is judged, and the
+#: quiet zone drawn around it (data-area units, :data:`INVERTED_QUIET`).
+_CAMERA_BLUR_PX = 0.45
+_DRAWN_QUIET = INVERTED_QUIET
+_ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
+_ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
+
+
+@dataclass(frozen=True)
+class View:
+    """One interpretation of a candidate: data-area corners in tag order and the polarity."""
+
+    corners: _F64
+    polarity: Polarity
+
+
+@dataclass(frozen=True)
+class Aligned:
+    """A refined candidate: template row, view, homography data-area units → frame, the
+    correlation of the aligned tag with the frame inside the data area, and its largest local
+    misfit there. Both compare the frame with the tag as the camera would see it: drawn into
+    the frame through the aligned homography, blurred by ``_CAMERA_BLUR_PX`` and sampled back
+    like the frame. The misfit is the mean absolute residual of the frame against that view
+    (scaled to the frame's contrast by least squares) over a window of ``_MISFIT_WINDOW``
+    cells, in units of that contrast: a tag that resembles the one seen fits well overall but
+    leaves a patch where a triangle differs. The quiet misfit is the mean absolute residual
+    over the quiet band around the data area, with the scale and offset fitted inside it: the
+    band must be as bright or dark as the reading's polarity prints it."""
+
+    row: int
+    view: View
+    to_frame: _F64
+    correlation: float
+    misfit: float
+    quiet_misfit: float
+
+
+def fine_template(triangles: _F64, polarity: Polarity) -> _F32:
+    """The refinement template: data area with its triangles and a band of quiet zone, 0 … 1,
+    bright where the print is bright."""
+    b = _FINE_BAND
+    ring = np.array(
+        [
+            [[-b, -b], [1 + b, -b], [1 + b, 0], [-b, 0]],
+            [[-b, 1], [1 + b, 1], [1 + b, 1 + b], [-b, 1 + b]],
+            [[-b, 0], [0, 0], [0, 1], [-b, 1]],
+            [[1, 0], [1 + b, 0], [1 + b, 1], [1, 1]],
+        ]
+    )
+    img = rasterize(ring[None], -b, 1 + b, _FINE_GRID)[0]
+    if len(triangles):
+        img += rasterize(triangles[None], -b, 1 + b, _FINE_GRID)[0]
+    out: _F32 = img if polarity == "normal" else 1.0 - img
+    return out
+
+
+def neighbourhood(gray: NDArray[np.uint8], corners: list[_F64]) -> tuple[_F32, _F64]:
+    """The part of the frame around data areas with these corners (and twice their quiet band),
+    as float32 (ECC needs the template's type), and the frame position of its pixel (0, 0)."""
+    h, w = gray.shape
+    if not corners:
+        return np.zeros((0, 0), dtype=np.float32), np.zeros(2)
+    pts = np.concatenate(corners)
+    centre = pts.mean(axis=0)
+    reach = 1 + 4 * _FINE_BAND  # the band on both sides, with room for the alignment to move
+    lo = np.floor(centre + (pts.min(axis=0) - centre) * reach) - 2
+    hi = np.ceil(centre + (pts.max(axis=0) - centre) * reach) + 3
+    x0, y0 = max(int(lo[0]), 0), max(int(lo[1]), 0)
+    x1, y1 = min(int(hi[0]), w), min(int(hi[1]), h)
+    return np.asarray(gray[y0:y1, x0:x1], dtype=np.float32), np.array([x0, y0], dtype=np.float64)
+
+
+def to_roi(origin: _F64) -> _F64:
+    """The translation from frame pixels to those of a neighbourhood whose pixel (0, 0) lies at
+    frame position ``origin`` (see :func:`neighbourhood`)."""
+    return np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
+
+
+def ecc(roi: _F32, origin: _F64, template: _F32, corners: _F64) -> tuple[_F64, _F64] | None:
+    """ECC alignment of a refinement template (see :func:`fine_template`) to the frame, from the
+    data-area ``corners``; ``roi`` is the frame around the quad, its pixel (0, 0) at frame
+    position ``origin``. Returns the homographies data-area units → frame and template pixels →
+    ``roi``, or None when ECC fails."""
+    start = square_homography(corners)
+    if start is None or roi.shape[0] < 4 or roi.shape[1] < 4:
+        return None
+    px_to_unit = _FINE_PX_TO_UNIT
+    frame_to_roi = to_roi(origin)
+    warp = (frame_to_roi @ start @ px_to_unit).astype(np.float32)
+    try:
+        # no mask (the stubs do not list a None mask)
+        rho, warp = cv2.findTransformECC(  # type: ignore[call-overload]
+            template, roi, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, None, _ECC_SMOOTHING
+        )
+    except cv2.error:
+        return None  # ECC did not converge (or the warp became singular)
+    warp64 = np.asarray(warp, dtype=np.float64)
+    to_frame = np.linalg.inv(frame_to_roi) @ warp64 @ np.linalg.inv(px_to_unit)
+    to_frame /= to_frame[2, 2]
+    if not np.isfinite(to_frame).all() or not math.isfinite(rho):
+        return None
+    return to_frame, warp64
+
+
+def align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View) -> Aligned | None:
+    """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`ecc`),
+    judged against the tag as the camera would see it there; None when ECC fails."""
+    template = fine_template(bank.triangles[row], view.polarity)
+    found = ecc(roi, origin, template, view.corners)
+    if found is None:
+        return None
+    return judge(roi, origin, bank, row, view, found[0])
+
+
+def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64) -> Aligned:
+    """Template ``row`` judged against the frame under the homography ``to_frame`` (data-area
+    units → frame), as the camera would see it there (see :class:`Aligned`)."""
+    warp = to_roi(origin) @ to_frame @ _FINE_PX_TO_UNIT
+    size = (_FINE_GRID, _FINE_GRID)
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    seen = cv2.warpPerspective(roi, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    # The tag drawn into the frame through the aligned homography and blurred like a camera
+    # image, then sampled back like the frame: at a grazing view each pixel averages a long
+    # strip of the data area, which a template blurred in data-area units does not model (the
+    # correct tag's sliver tips then misfit like a different tag's triangle).
+    drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, to_roi(origin) @ to_frame, (roi.shape[0], roi.shape[1]))
+    if view.polarity == "inverted":
+        drawn = np.float32(1.0) - drawn
+    drawn = np.asarray(cv2.GaussianBlur(drawn, (0, 0), _CAMERA_BLUR_PX), dtype=np.float32)
+    expected = cv2.warpPerspective(drawn, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    # judged inside the data area only: the quiet band that anchors the alignment looks the
+    # same for every tag and would lift every candidate's score alike
+    inside = _FINE_INSIDE
+    e_in = np.asarray(expected, dtype=np.float32)[inside, inside]
+    s_in = np.asarray(seen, dtype=np.float32)[inside, inside]
+    pair = normalized_rows(np.stack([e_in.ravel(), s_in.ravel()]))
+    a_mat = np.stack([e_in.ravel(), np.ones(e_in.size, dtype=np.float32)], axis=1)
+    coef = np.linalg.lstsq(a_mat, s_in.ravel(), rcond=None)[0]
+    resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
+    local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
+    misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
+    # the quiet band under the same scale and offset: as bright (normal) or dark (inverted) as
+    # the print, where the data area alone can pass for the other polarity's
+    band = _FINE_BAND_CELLS
+    seen_band = np.asarray(seen, dtype=np.float32)[band]
+    quiet = np.abs(seen_band - (coef[0] * np.asarray(expected, dtype=np.float32)[band] + coef[1]))
+    quiet_misfit = float(quiet.mean() / max(abs(float(coef[0])), 1e-6))
+    return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit)
