@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -51,7 +50,7 @@ def identify(
     quad: Quad,
     catalogue: Catalogue,
     clock: StageClock,
-    print_required: AbstractSet[str] = frozenset(),
+    print_required: frozenset[str] = frozenset(),
 ) -> Detection | Rejection:
     """ID, lookup and verification of one point hypothesis.
 
@@ -69,7 +68,7 @@ def identify(
         Lookup, its point counts and the settings.
     clock : StageClock
         Charged with ``"identify"`` and ``"verify"`` time.
-    print_required : set of str, optional
+    print_required : frozenset of str, optional
         IDs that must show their tag as printed (layout and placement) at any view: those an
         earlier reading of the same data area was refused as not printed.
 
