@@ -36,7 +36,7 @@ from ottag_db.decode.candidates import (
 )
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
-from ottag_db.decode.model_match import read_model, wants_model
+from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
@@ -206,6 +206,11 @@ class Detector:
                     result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                 if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
                     result = read_rectified(gray, quad, result, self._catalogue, clock)
+                if isinstance(result, Detection) and self._bank:
+                    result = confirm_by_model(gray, quad, result, self._bank, p, clock)
+                    if isinstance(result, Rejection):
+                        rejected.append(result.at(quad))  # two readings disagree: not read by model again
+                        continue
                 if isinstance(result, Rejection) and self._bank and wants_model(quad, result, _RETRY_UPSAMPLED, p):
                     by_model.append((quad, result))
                 elif isinstance(result, Rejection):

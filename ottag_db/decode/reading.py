@@ -25,7 +25,7 @@ from ottag_db.decode.splitting import SearchBudget
 from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
 
-__all__ = ["MAX_TRIANGLES", "FrameMap", "read_area", "scaled_params"]
+__all__ = ["MAX_TRIANGLES", "FrameMap", "points_fit", "read_area", "scaled_params"]
 
 _F64 = NDArray[np.float64]
 
@@ -163,7 +163,7 @@ def read_area(
             result = identify(pts, lines, corners, frame_quad or quad, catalogue, clock, not_printed)
             clock.lap("identify")
             if isinstance(result, Detection):
-                if _points_fit(result, frame_quad or quad, catalogue.params):
+                if points_fit(result, frame_quad or quad, catalogue.params):
                     return result, corners
                 if loose is None or _point_error(result) < _point_error(loose):
                     loose = result
@@ -181,7 +181,7 @@ def _point_error(det: Detection) -> float:
     return math.inf if det.reprojection_error_px is None else det.reprojection_error_px
 
 
-def _points_fit(det: Detection, quad: Quad, params: DetectorParams) -> bool:
+def points_fit(det: Detection, quad: Quad, params: DetectorParams) -> bool:
     """Whether the reading's points, not only its side lines, lie within the reprojection bound.
 
     Verification fits the side lines (a sharp tip's point slides along its bisector), so a
@@ -189,6 +189,20 @@ def _points_fit(det: Detection, quad: Quad, params: DetectorParams) -> bool:
     image: a nine-point tag then reads as an eight-point type (one in 2,000 printed nine-point
     tags, ``benchmarks/roundtrip_k9.py``). When the points miss the bound, the other
     hypotheses are tried too and the reading whose points fit best is kept.
+
+    Parameters
+    ----------
+    det : Detection
+        A reading (points and ``reprojection_error_px`` in the pixels of ``quad``).
+    quad : Quad
+        Its candidate: the bound is ``max(max_reproj_px, max_reproj_rel × √area)``.
+    params : DetectorParams
+        ``max_reproj_px`` and ``max_reproj_rel``.
+
+    Returns
+    -------
+    bool
+        False also when the reading has no reprojection error.
     """
     bound = max(params.max_reproj_px, params.max_reproj_rel * math.sqrt(quad.area))
     return _point_error(det) <= bound

@@ -38,7 +38,8 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
     """Cut out the data area of ``quad`` and separate its triangles (local Otsu threshold).
 
     The interior mask is the quad without a band along its border (the blur of the quiet
-    zone's edge); the triangles are the pixels brighter than the level halfway between the
+    zone's edge; 1 px when the usual band leaves too little to threshold, as of a data area
+    nearly edge-on); the triangles are the pixels brighter than the level halfway between the
     two Otsu classes of the interior (for an inverted tag the ROI is inverted first).
 
     Parameters
@@ -68,13 +69,18 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
     origin = np.array([x0, y0], dtype=np.float64)
     ql = q - origin
     side = math.sqrt(quad.area)
-    band = max(2, round(0.02 * side))
-    mask: NDArray[Any] = np.zeros((roi.shape[0], roi.shape[1]), dtype=np.uint8)
     qi: NDArray[Any] = np.round(ql * 16).astype(np.int32).reshape(4, 1, 2)
-    cv2.fillPoly(mask, [qi], 255, cv2.LINE_8, 4)
-    cv2.polylines(mask, [qi], True, 0, 2 * band + 1, cv2.LINE_8, 4)
-    hist = cv2.calcHist([roi], [0], mask, [256], [0, 256]).ravel()
-    split = otsu(hist)
+    # A normal tag at 84–86° gives a data area 4–6 px thin (its dark area thins under blur):
+    # the 2 px band left nothing of it (``low_contrast`` without grey levels) while the same
+    # poses inverted read (benchmarks/decode_sweeps.py); with 1 px its slivers or model read.
+    for band in (max(2, round(0.02 * side)), 1):
+        mask: NDArray[Any] = np.zeros((roi.shape[0], roi.shape[1]), dtype=np.uint8)
+        cv2.fillPoly(mask, [qi], 255, cv2.LINE_8, 4)
+        cv2.polylines(mask, [qi], True, 0, 2 * band + 1, cv2.LINE_8, 4)
+        hist = cv2.calcHist([roi], [0], mask, [256], [0, 256]).ravel()
+        split = otsu(hist)
+        if split is not None:
+            break
     if split is None or split.contrast < params.min_contrast:
         return Rejection("low_contrast", "" if split is None else f"{split.contrast:.0f} grey levels")
     level = 0.5 * (split.dark + split.bright)
