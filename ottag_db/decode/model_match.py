@@ -335,11 +335,13 @@ def _decide(
     aligned.sort(key=lambda a: -a.correlation)
     top = aligned[0]
     key = (bank.entries[top.row].lambda_text, top.view.polarity)
+    # a rival's misfit explains it away only when it is also clearly worse than the winner's
+    misfit_limit = max(params.model_max_misfit, top.misfit + params.model_misfit_lead)
     rivals = [
         a.correlation
         for a in aligned
         if (bank.entries[a.row].lambda_text, a.view.polarity) != key
-        and a.misfit <= params.model_max_misfit
+        and a.misfit <= misfit_limit
         and a.quiet_misfit <= params.model_max_quiet_misfit
     ]
     return top, max(rivals + unaligned, default=-1.0)

@@ -21,7 +21,7 @@ from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.refine import refine
 from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, then_alternatives
-from ottag_db.decode.splitting import SearchBudget
+from ottag_db.decode.splitting import FitMemo, SearchBudget
 from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
 
@@ -100,10 +100,11 @@ def read_area(
     if isinstance(area, Rejection):
         return replace(area, not_printed=print_required), None
     side = area.side
-    decomps = decompose(area.fg, side, params, None)
+    memo = FitMemo()  # the alternatives below fit the first decomposition's contours again
+    decomps = decompose(area.fg, side, params, None, memo)
     if isinstance(decomps, Rejection) and alternatives is not None:
         # no plain decomposition: try the alternatives (opening, slit cuts) right away
-        decomps = decompose(area.fg, side, params, alternatives)
+        decomps = decompose(area.fg, side, params, alternatives, memo)
     clock.lap("triangles")
     if isinstance(decomps, Rejection):
         detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
@@ -114,7 +115,7 @@ def read_area(
         return Rejection("non_triangle", f"{decomps[0].count} triangles", not_printed=print_required), None
 
     def more() -> list[Decomposition] | Rejection:
-        alts = decompose(area.fg, side, params, alternatives) if alternatives is not None else []
+        alts = decompose(area.fg, side, params, alternatives, memo) if alternatives is not None else []
         clock.lap("triangles")
         return alts
 

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.image import otsu
-from ottag_db.decode.splitting import FitBudget, SearchBudget, component_decompositions
+from ottag_db.decode.splitting import FitBudget, FitMemo, SearchBudget, component_decompositions
 from ottag_db.decode.triangles import triangle_fit
 from ottag_db.decode.types import DataArea, Decomposition, DetectorParams, Quad, Rejection
 
@@ -92,7 +92,11 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
 
 
 def decompose(
-    fg: NDArray[np.uint8], side: float, params: DetectorParams, alternatives: SearchBudget | None
+    fg: NDArray[np.uint8],
+    side: float,
+    params: DetectorParams,
+    alternatives: SearchBudget | None,
+    memo: FitMemo | None = None,
 ) -> list[Decomposition] | Rejection:
     """Split the bright components of a data area into triangles (contour side chains).
 
@@ -110,6 +114,8 @@ def decompose(
         splitter's cuts between concave points, then the 3×3 opening, then slit (notch) cuts;
         the alternatives of one component at a time are combined with the first ones of the
         others.
+    memo : FitMemo or None
+        Fits and cuts of this mask's contours from an earlier call (None: a fresh memo).
 
     Returns
     -------
@@ -122,6 +128,8 @@ def decompose(
     if hier is None:
         return [Decomposition(())]
     hh = hier[0]
+    if memo is None:
+        memo = FitMemo()
     min_area = max(params.min_triangle_area_px, 2e-4 * side * side)
     max_area = 0.45 * side * side  # no triangle of a tag covers half its data area
     options: list[list[list[_F64]]] = []
@@ -152,7 +160,7 @@ def decompose(
                 pts = bridge(pts, hole)
             child = hh[child][0]
         opening = functools.partial(triangles_by_opening, fg, contours, hier, i)
-        alts = component_decompositions(pts, opening, alternatives, notch, strict)
+        alts = component_decompositions(pts, opening, alternatives, notch, strict, memo)
         if not alts:
             return Rejection("non_triangle")
         options.append(alts)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import cv2
@@ -13,12 +13,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.single_set import pair_table
-from ottag_db.decode.triangles import off_triangle, triangle_fit, triangle_fit_parts
+from ottag_db.decode.triangles import TriangleFit, off_triangle, strict_chains, triangle_fit_parts
 
 __all__ = [
     "FRAME_SEARCH",
     "RECTIFIED_SEARCH",
     "FitBudget",
+    "FitMemo",
     "SearchBudget",
     "component_decompositions",
     "notch_cuts",
@@ -70,12 +71,46 @@ class FitBudget:
         return True
 
 
+#: A cut of a contour: ``(rank, i, j)``, a sort key and the contour indices of its two ends.
+_Cut = tuple[float, int, int]
+
+
+@dataclass
+class FitMemo:
+    """Triangle fits and cuts already computed for the contours of one data-area reading.
+
+    The searches for alternative decompositions fit the same sub-contours again (two cuts in
+    either order give the same pieces; the strict searches repeat the notch search's cuts): on
+    the ArUco frames of benchmarks/decode_speed.py half of the fits were repeats. A memo only
+    saves the work: every search still spends its :class:`FitBudget` per fit, so the
+    decompositions found are the same. Owned by one reading and dropped with it.
+    """
+
+    fits: dict[tuple[str, tuple[int, ...], bytes], TriangleFit | None] = field(default_factory=dict)
+    cuts: dict[tuple[str, tuple[int, ...], bytes, bool, bool], list[_Cut]] = field(default_factory=dict)
+
+    def fit(self, pts: NDArray[Any]) -> TriangleFit | None:
+        """:func:`~ottag_db.decode.triangles.triangle_fit_parts` of ``pts``, computed once."""
+        key = (pts.dtype.str, pts.shape, pts.tobytes())
+        if key not in self.fits:
+            self.fits[key] = triangle_fit_parts(pts)
+        return self.fits[key]
+
+    def cuts_of(self, pts: NDArray[Any], notch: bool, strict: bool) -> list[_Cut]:
+        """:func:`contour_cuts` of ``pts``, computed once."""
+        key = (pts.dtype.str, pts.shape, pts.tobytes(), notch, strict)
+        if key not in self.cuts:
+            self.cuts[key] = contour_cuts(pts, notch, strict)
+        return self.cuts[key]
+
+
 def component_decompositions(
     pts: NDArray[Any],
     opening: Callable[[], _Chains | None],
     alternatives: SearchBudget | None = FRAME_SEARCH,
     notch_budget: FitBudget | None = None,
     strict_budget: FitBudget | None = None,
+    memo: FitMemo | None = None,
 ) -> list[_Chains]:
     """Alternative triangle decompositions of one component contour, most plausible first.
 
@@ -92,6 +127,8 @@ def component_decompositions(
     notch_budget, strict_budget : FitBudget or None
         Notch and strict fits left, shared with the data area's other components (None: a
         fresh one of ``alternatives``).
+    memo : FitMemo or None
+        The reading's fits and cuts so far (None: a fresh one).
 
     Returns
     -------
@@ -110,8 +147,10 @@ def component_decompositions(
             keys.add(key)
             out.append(chains)
 
-    whole = triangle_fit_parts(pts)
-    first = whole.chains if whole is not None else next(split_triangles(pts, 0, False, fitted=True), None)
+    if memo is None:
+        memo = FitMemo()
+    whole = memo.fit(pts)
+    first = whole.chains if whole is not None else next(split_triangles(pts, 0, False, fitted=True, memo=memo), None)
     if first is not None:
         add(first)
         if alternatives is None or (
@@ -128,7 +167,7 @@ def component_decompositions(
     # ArUco marker's cells, took thousands)
     if notch_budget is None:
         notch_budget = FitBudget(alternatives.notch_fits)
-    for alt in itertools.islice(split_triangles(pts, 0, True, budget=notch_budget), 8):
+    for alt in itertools.islice(split_triangles(pts, 0, True, budget=notch_budget, memo=memo), 8):
         add(alt)
         if len(out) >= 4:
             break
@@ -136,7 +175,7 @@ def component_decompositions(
     if strict_budget is None:
         strict_budget = FitBudget(alternatives.strict_fits)
     for tol_px, notch in itertools.product((1.5, 2.5), (False, True)):
-        for strict in itertools.islice(split_triangles(pts, 0, notch, tol_px, strict_budget), 2):
+        for strict in itertools.islice(split_triangles(pts, 0, notch, tol_px, strict_budget, memo=memo), 2):
             add(strict)
     return out
 
@@ -148,6 +187,7 @@ def split_triangles(
     strict: float = 0.0,
     budget: FitBudget | None = None,
     fitted: bool = False,
+    memo: FitMemo | None = None,
 ) -> Iterator[_Chains]:
     """Triangles of a contour that may be several triangles joined at shared vertices.
 
@@ -172,6 +212,8 @@ def split_triangles(
         Fits left for the whole search (None: unbounded).
     fitted : bool
         The caller already knows that ``pts`` is not one (loosely fitted) triangle.
+    memo : FitMemo or None
+        Fits and cuts of the search so far (None: a fresh one).
 
     Yields
     ------
@@ -180,21 +222,61 @@ def split_triangles(
     """
     if budget is not None and not budget.take():
         return
-    tri = None if fitted and not strict else triangle_fit(pts, strict)
+    if memo is None:
+        memo = FitMemo()
+    tri = None if fitted and not strict else strict_chains(memo.fit(pts), strict)
     if tri is not None:
         yield tri
         return
     n = len(pts)
     if depth >= 4 or n < 16:
         return
+    cuts = memo.cuts_of(pts, notch, bool(strict))
+    tried: set[tuple[int, int]] = set()
+    for _, i, j in cuts:
+        a, b = sorted((i, j))
+        if (a, b) in tried:
+            continue
+        tried.add((a, b))
+        rights: list[_Chains] | None = None
+        for left in split_triangles(pts[a : b + 1], depth + 1, notch, strict, budget, memo=memo):
+            if rights is None:
+                rest = np.concatenate([pts[b:], pts[: a + 1]])
+                rights = list(itertools.islice(split_triangles(rest, depth + 1, notch, strict, budget, memo=memo), 2))
+            if not rights:
+                break
+            for right in rights:
+                yield left + right
+
+
+def contour_cuts(pts: NDArray[Any], notch: bool, strict: bool) -> list[_Cut]:
+    """The cuts :func:`split_triangles` tries on a contour, in order.
+
+    Parameters
+    ----------
+    pts : numpy.ndarray
+        ``(n, 2)`` integer contour (n ≥ 16).
+    notch : bool
+        Also cuts along slits (:func:`notch_cuts`).
+    strict : bool
+        A strict search: also cuts at every reflex corner (:func:`reflex_corners`), and ends
+        may lie closer together.
+
+    Returns
+    -------
+    list of tuple
+        ``(rank, i, j)``: cuts between two concave points (shortest first, at most 5), from a
+        concave point to a contour point within 3 px, then (``notch``) along slits.
+    """
+    n = len(pts)
     c = pts.reshape(-1, 1, 2).astype(np.int32)
     try:
         hull = np.sort(cv2.convexHull(c, returnPoints=False).ravel()).reshape(-1, 1)
         defects = cv2.convexityDefects(c, hull.astype(np.int32))
     except cv2.error:
-        return
+        return []
     if defects is None:
-        return
+        return []
     dfs = defects.reshape(-1, 4)
     if strict:
         # every reflex corner of the polygon approximation (a union of triangles meeting at
@@ -205,7 +287,7 @@ def split_triangles(
             dfs = np.concatenate([dfs, extra[~np.isin(extra[:, 2], dfs[:, 2])]])
     dfs = dfs[dfs[:, 3] >= 180]  # deeper than 0.7 px
     if len(dfs) == 0:
-        return
+        return []
     flat = pts.reshape(-1, 2).astype(np.float64)
     min_sep = 8 if strict else max(8, n // 12)  # strict: tiny triangles at a pinch too
     far_pts = np.array(sorted(set(dfs[:, 2].tolist())), dtype=dfs.dtype)  # np.unique, without its overhead
@@ -235,21 +317,7 @@ def split_triangles(
             cuts.append((dj, i, j))
     if notch:
         cuts += notch_cuts(flat, dfs, min_sep)
-    tried: set[tuple[int, int]] = set()
-    for _, i, j in cuts:
-        a, b = sorted((i, j))
-        if (a, b) in tried:
-            continue
-        tried.add((a, b))
-        rights: list[_Chains] | None = None
-        for left in split_triangles(pts[a : b + 1], depth + 1, notch, strict, budget):
-            if rights is None:
-                rest = np.concatenate([pts[b:], pts[: a + 1]])
-                rights = list(itertools.islice(split_triangles(rest, depth + 1, notch, strict, budget), 2))
-            if not rights:
-                break
-            for right in rights:
-                yield left + right
+    return cuts
 
 
 def reflex_corners(pts: NDArray[Any]) -> NDArray[np.int64]:

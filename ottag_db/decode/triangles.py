@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from ottag_db.decode.types import Rejection
 
-__all__ = ["TriangleFit", "bad_triangles", "off_triangle", "triangle_fit", "triangle_fit_parts"]
+__all__ = ["TriangleFit", "bad_triangles", "off_triangle", "strict_chains", "triangle_fit", "triangle_fit_parts"]
 
 _F64 = NDArray[np.float64]
 _NEXT3 = np.array([1, 2, 0])
@@ -53,7 +53,24 @@ def triangle_fit(pts: NDArray[Any], strict: float = 0.0) -> list[_F64] | None:
     list of numpy.ndarray or None
         The three side chains (float64 ``(m, 2)``), side j from corner j to corner j+1.
     """
-    fit = triangle_fit_parts(pts)
+    return strict_chains(triangle_fit_parts(pts), strict)
+
+
+def strict_chains(fit: TriangleFit | None, strict: float) -> list[_F64] | None:
+    """The side chains of a fit that passes the strict test of :func:`triangle_fit`.
+
+    Parameters
+    ----------
+    fit : TriangleFit or None
+        :func:`triangle_fit_parts` of a contour.
+    strict : float
+        As in :func:`triangle_fit` (0: no strict test).
+
+    Returns
+    -------
+    list of numpy.ndarray or None
+        ``fit.chains``, or None when there is no fit or it fails the strict test.
+    """
     if fit is None:
         return None
     if strict and off_triangle(fit.contour, fit.corners, strict) > max(3, 0.02 * len(fit.contour)):

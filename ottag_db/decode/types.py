@@ -284,6 +284,10 @@ class DetectorParams:
       the inside of an inverted tag's quiet zone. Measured on the same 480 frames: the correct
       tag, once aligned, 0.05 (median) and at most 0.20; an inverted reading of a normal tag
       at 84° that fit within the other limits (ρ 0.94), 0.51;
+    - ``model_misfit_lead``: a rival's misfit explains it away only when it also exceeds the
+      winner's by this: on the tilt sweep at 86° a look-alike read an inverted tag's thin
+      quad with ρ 0.93 and a misfit of 0.275, its rivals (ρ 0.91 and 0.88) explained away by
+      misfits of 0.295 and 0.307;
     - ``model_max_templates``: a lookup with more printed tags than this is not read by model
       (the templates take ``4 · 32²`` bytes each, built with the detector).
 
@@ -329,6 +333,7 @@ class DetectorParams:
     model_min_gap: float = 0.08
     model_max_misfit: float = 0.28
     model_max_quiet_misfit: float = 0.3
+    model_misfit_lead: float = 0.05
     model_max_templates: int = 20_000
 
     def __post_init__(self) -> None:

@@ -8,6 +8,7 @@ import numpy as np
 from ottag_db.decode.splitting import (
     RECTIFIED_SEARCH,
     FitBudget,
+    FitMemo,
     component_decompositions,
     notch_cuts,
     reflex_corners,
@@ -84,3 +85,31 @@ def test_notch_search_is_bounded() -> None:
     budget = FitBudget(RECTIFIED_SEARCH.notch_fits)
     assert list(split_triangles(pts, 0, True, budget=budget)) == []
     assert 0 <= budget.remaining < RECTIFIED_SEARCH.notch_fits
+
+
+def test_a_memo_saves_fits_but_not_budget() -> None:
+    """Three triangles in a chain, searched with every alternative: with one memo the same
+    decompositions come out, each budget is spent as without it, and a second search of the
+    same contour fits nothing new."""
+    pts = _contour(
+        np.array([[10, 20], [80, 110], [10, 200]]),
+        np.array([[80, 110], [150, 20], [160, 200]]),
+        np.array([[160, 200], [230, 120], [225, 230]]),
+    )
+
+    def search(memo: FitMemo | None) -> tuple[list[list[np.ndarray]], int, int]:
+        notch, strict = FitBudget(RECTIFIED_SEARCH.notch_fits), FitBudget(RECTIFIED_SEARCH.strict_fits)
+        alts = component_decompositions(pts, lambda: None, RECTIFIED_SEARCH, notch, strict, memo)
+        return alts, notch.remaining, strict.remaining
+
+    plain, plain_notch, plain_strict = search(None)
+    memo = FitMemo()
+    kept, kept_notch, kept_strict = search(memo)
+    assert len(kept) == len(plain) >= 1
+    for a, b in zip(kept, plain, strict=True):
+        assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert (kept_notch, kept_strict) == (plain_notch, plain_strict)
+    fitted = len(memo.fits)
+    assert fitted > 0
+    search(memo)
+    assert len(memo.fits) == fitted
