@@ -171,6 +171,9 @@ def confirm_by_model(
         or points_fit(reading, quad, params)
     ):
         return reading
+    if _shows_own_print(gray, reading, bank, params):
+        clock.lap("model")
+        return reading  # the tag read fits the image as printed: nothing to dispute
     error = reading.reprojection_error_px
     detail = f"points {error:.2f} px off" if error is not None else "no reprojection error"
     check = read_model(gray, quad, Rejection("verification", detail, reading.lambda_text), bank, params, clock)
@@ -184,6 +187,33 @@ def confirm_by_model(
         f" ρ {check.model_correlation:.2f}",
         reading.lambda_text,
     )
+
+
+def _shows_own_print(gray: NDArray[np.uint8], reading: Detection, bank: TemplateBank, params: DetectorParams) -> bool:
+    """Whether the tag a reading names, aligned by ECC from its corners (the turn and
+    realization its coarse score prefers), meets the ``model_*`` limits of an accepted reading
+    by model: one alignment instead of a reading by model (on grazing frames the check of loose
+    readings cost 20 ms/frame that way, most of them readings of the tag seen)."""
+    rows = [i for i, e in enumerate(bank.entries) if e.lambda_text == reading.lambda_text]
+    if not rows:
+        return False
+    views: list[View] = []
+    samples: list[_F32] = []
+    sign = 1.0 if reading.polarity == "normal" else -1.0
+    for r in range(4):
+        view = View(np.roll(reading.corners, -r, axis=0), reading.polarity)
+        to_frame = square_homography(view.corners)
+        s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
+        if s is not None:
+            samples.append(sign * s.ravel())
+            views.append(view)
+    if not samples:
+        return False
+    scores = bank.coarse[rows] @ normalized_rows(np.stack(samples)).T  # (rows, turns)
+    best_row, best_view = divmod(int(np.argmax(scores)), len(views))
+    roi, origin = neighbourhood(gray, [views[best_view].corners])
+    a = align(roi, origin, bank, rows[best_row], views[best_view])
+    return a is not None and _accepted(a, -1.0, params)
 
 
 def _views(quad: Quad, params: DetectorParams) -> list[View]:

@@ -274,7 +274,7 @@ class DetectorParams:
       misfit of 0.14 (median; 1 % over 0.31). With the frame's tag removed from the lookup (a
       tag not in a dictionary), the best other tags came within reach in one way at a time:
       every one with ρ ≥ 0.90 misfit by 0.35 or more (1.25 times the limit), every one with
-      a misfit ≤ 0.32 had ρ ≤ 0.90. With these limits none of them is read and 439 of the
+      a misfit ≤ 0.32 had ρ ≤ 0.90. With these limits none of them is read and 442 of the
       480 frames are;
     - ``model_max_quiet_misfit``: … and the band of quiet zone around the data area must be as
       bright (a normal tag) or as dark (an inverted one) as the aligned tag's print, to this
