@@ -40,8 +40,9 @@ placement), so the image can *choose among the stored tags* instead (issue 13, s
    behind tags of the other turns, hence the challengers of its own turn (3 wrong IDs in 5,100
    frames of those scenes with tags of 25–60 px at 55–85°).
 5. **Check.** A small data area's reading that was not by model and whose points miss the
-   reprojection bound (kept when nothing fitted better) is read by model too; if the model
-   reads another tag, the candidate is refused (:func:`confirm_by_model`).
+   reprojection bound (kept when nothing fitted better) is checked: the tag read is aligned
+   first, and unless it fits as printed, the candidate is read by model; if the model reads
+   another tag, the candidate is refused (:func:`confirm_by_model`).
 
 The ID is still an order type: the image only chooses which stored one it shows, so a tag
 drawn with other triangles or another placement is not read this way. The detector runs this
@@ -141,7 +142,9 @@ def confirm_by_model(
     bisector, see :func:`~ottag_db.decode.reading.points_fit`), but on a small data area it can
     also be a tag whose vertices merged: an 8-point tag 36 px wide at 58° read as a 7-point type
     with its points 1.07 × the bound off, while the reading by model of the same candidate
-    read the tag seen. When the reading by model reads another tag, the candidate is refused.
+    read the tag seen. The tag read is aligned first (one ECC alignment): when it fits as
+    printed within the ``model_*`` limits the reading stands; else the candidate is read by
+    model, and when that reads another tag, the candidate is refused.
 
     Parameters
     ----------
