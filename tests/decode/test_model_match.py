@@ -90,9 +90,9 @@ def test_which_candidates_are_read_by_model() -> None:
 
 def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     """The grazing set (80–86°, both polarities): zero wrong IDs, and reading by model adds
-    reads (measured 27/28 with it, 12/28 without; issue 13 asks ≥ 97 %, not reached: an 86°
-    normal tag whose dark data area shows no contrast inside is not read by model, see
-    :func:`test_which_candidates_are_read_by_model`)."""
+    reads (measured 28/28 with it, 12/28 without; 27/28 before a data area 4–6 px thin was
+    thresholded inside a 1 px band: an 86° normal tag had shown no contrast inside and was not
+    read by model, see :func:`test_which_candidates_are_read_by_model`)."""
     lookup, tags = printed
     full = Detector(lookup)
     without = Detector(lookup, DetectorParams(model_match=False))
@@ -108,7 +108,7 @@ def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
     with capsys.disabled():
         print(f"\ngrazing 80–86°: {ok}/{n} ({by_model} by model), without reading by model {ok_without}/{n}")
     assert wrong == 0
-    assert ok >= 26 and ok >= ok_without + 10
+    assert ok >= 27 and ok >= ok_without + 10
 
 
 def test_the_quiet_zone_tells_a_normal_tag_from_the_inside_of_an_inverted_one(printed) -> None:
