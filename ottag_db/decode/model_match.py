@@ -200,19 +200,11 @@ def _shows_own_print(gray: NDArray[np.uint8], reading: Detection, bank: Template
     rows = [i for i, e in enumerate(bank.entries) if e.lambda_text == reading.lambda_text]
     if not rows:
         return False
-    views: list[View] = []
-    samples: list[_F32] = []
-    sign = 1.0 if reading.polarity == "normal" else -1.0
-    for r in range(4):
-        view = View(np.roll(reading.corners, -r, axis=0), reading.polarity)
-        to_frame = square_homography(view.corners)
-        s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
-        if s is not None:
-            samples.append(sign * s.ravel())
-            views.append(view)
-    if not samples:
+    turns = [View(np.roll(reading.corners, -r, axis=0), reading.polarity) for r in range(4)]
+    views, samples = _coarse_samples(gray, [(view, square_homography(view.corners)) for view in turns])
+    if not views:
         return False
-    scores = bank.coarse[rows] @ normalized_rows(np.stack(samples)).T  # (rows, turns)
+    scores = bank.coarse[rows] @ samples.T  # (rows, turns)
     best_row, best_view = divmod(int(np.argmax(scores)), len(views))
     roi, origin = neighbourhood(gray, [views[best_view].corners])
     a = align(roi, origin, bank, rows[best_row], views[best_view])
@@ -268,6 +260,23 @@ def _sample(gray: NDArray[np.uint8], to_frame: _F64, lo: float, hi: float, size:
     return np.asarray(cv2.resize(warped, (size, size), interpolation=cv2.INTER_AREA), dtype=np.float32)
 
 
+def _coarse_samples(gray: NDArray[np.uint8], framed: list[tuple[View, _F64 | None]]) -> tuple[list[View], _F32]:
+    """The views whose data area samples on the coarse grid (each through its homography from
+    data-area units to the frame) and their samples as normalized rows, triangles bright (an
+    inverted view's sample negated): ``bank.coarse @ rows.T`` scores every template. The rows
+    are ``(0, MODEL_GRID²)`` when no view samples."""
+    samples: list[_F32] = []
+    kept: list[View] = []
+    for view, to_frame in framed:
+        s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
+        if s is not None:
+            samples.append(s.ravel() if view.polarity == "normal" else -s.ravel())
+            kept.append(view)
+    if not samples:
+        return kept, np.zeros((0, MODEL_GRID * MODEL_GRID), dtype=np.float32)
+    return kept, normalized_rows(np.stack(samples))
+
+
 def read_model(
     gray: NDArray[np.uint8],
     quad: Quad,
@@ -305,18 +314,11 @@ def read_model(
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
     roi, origin = neighbourhood(gray, [view.corners for view in views])
     views += _outline_views(roi, origin, views, math.sqrt(quad.area))
-    samples: list[_F32] = []
-    kept: list[View] = []
-    for view in views:
-        to_frame = square_homography(view.corners)
-        s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
-        if s is not None:
-            samples.append(s.ravel() if view.polarity == "normal" else -s.ravel())
-            kept.append(view)
+    kept, rows = _coarse_samples(gray, [(view, square_homography(view.corners)) for view in views])
     if not kept:
         clock.lap("model")
         return first
-    scores = bank.coarse @ normalized_rows(np.stack(samples)).T  # (templates, views)
+    scores = bank.coarse @ rows.T  # (templates, views)
     chosen: list[tuple[int, View, float]] = []
     # the best tags of each reading of the quad (its own polarity; the inverted tag inside a
     # dark quad), so that one reading's many near-misses cannot crowd out the other's match
@@ -397,21 +399,15 @@ def _challengers(
     four turns: the winner's corner order need not be another tag's): the best
     ``MODEL_CHALLENGERS`` tags of the winner's polarity not yet aligned over all four turns,
     and the best ``MODEL_CHALLENGERS`` of the winner's own turn, aligned by ECC."""
-    sign = 1.0 if top.view.polarity == "normal" else -1.0
-    views: list[View] = []
-    samples: list[_F32] = []
-    own: list[int] = []  # the column of the winner's own turn
-    for i, turn in enumerate(_QUARTER_TURNS):
-        to_frame = top.to_frame @ turn
-        s = _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
-        if s is not None:
-            if i == 0:
-                own.append(len(views))
-            samples.append(sign * s.ravel())
-            views.append(View(apply_homography(to_frame, UNIT_SQUARE), top.view.polarity))
-    if not samples:
+    turned = [top.to_frame @ turn for turn in _QUARTER_TURNS]
+    framed: list[tuple[View, _F64 | None]] = [
+        (View(apply_homography(to_frame, UNIT_SQUARE), top.view.polarity), to_frame) for to_frame in turned
+    ]
+    views, rows = _coarse_samples(gray, framed)
+    if not views:
         return []
-    scores = bank.coarse @ normalized_rows(np.stack(samples)).T  # (templates, turns)
+    own = [0] if views[0] is framed[0][0] else []  # the column of the winner's own turn
+    scores = bank.coarse @ rows.T  # (templates, turns)
     done = frozenset(bank.entries[a.row].lambda_text for a in aligned)
     chosen = _best_tags(bank, scores, views, MODEL_CHALLENGERS, done)
     # A look-alike of the tag seen in the winner's own turn can rank below tags of other turns

@@ -293,7 +293,7 @@ def contour_cuts(pts: NDArray[Any], notch: bool, strict: bool) -> list[_Cut]:
     far_pts = np.array(sorted(set(dfs[:, 2].tolist())), dtype=dfs.dtype)  # np.unique, without its overhead
     # cuts between two concave points (both sides of a shared vertex), shortest first; then
     # from a concave point to a contour point at most 3 px away (a pinch the hull hides)
-    cuts: list[tuple[float, int, int]] = []
+    cuts: list[_Cut] = []
     cut_max = max(4.0, 0.2 * math.sqrt(abs(float(cv2.contourArea(c)))))
     if len(far_pts) > 1:
         pairs = pair_table(len(far_pts))
@@ -371,7 +371,7 @@ def reflex_corners(pts: NDArray[Any]) -> NDArray[np.int64]:
     return out
 
 
-def notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[tuple[float, int, int]]:
+def notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[_Cut]:
     """Cuts that continue a slit from its bottom (a concave point) to where it leaves the shape.
 
     Two triangles that share a vertex at a narrow angle leave a slit between them that the
@@ -402,7 +402,7 @@ def notch_cuts(flat: _F64, dfs: NDArray[Any], min_sep: int) -> list[tuple[float,
     cv2.fillPoly(mask, [np.round(flat - lo).astype(np.int32).reshape(-1, 1, 2)], 1)
     reach = float(np.hypot(*size))
     steps = np.arange(1.0, reach, 0.5)
-    out: list[tuple[float, int, int]] = []
+    out: list[_Cut] = []
     walls = max(3, min(10, n // 24))
     # the rays (mouth direction, then bisector, per defect), marched all at once
     origin: list[int] = []

@@ -349,7 +349,7 @@ class DetectorParams:
             raise UsageError("at least one of use_otsu and use_adaptive must be True")
         for name in (
             "min_quad_area_px", "min_quad_side_px", "min_margin_px", "max_reproj_px",
-            "soft_max_flips", "soft_max_triples", "soft_min_fit_gap",
+            "soft_max_flips", "soft_max_triples", "soft_min_fit_gap", "model_misfit_lead",
         ):  # fmt: skip
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must not be negative")

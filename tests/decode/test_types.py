@@ -29,6 +29,7 @@ def test_params_validation() -> None:
         {"use_otsu": False, "use_adaptive": False},
         {"min_margin_px": -1.0},
         {"max_reproj_px": -0.5},
+        {"model_misfit_lead": -0.05},
     ):
         with pytest.raises(UsageError):
             DetectorParams(**bad)  # type: ignore[arg-type]
