@@ -140,7 +140,7 @@ def ecc(roi: _F32, origin: _F64, template: _F32, corners: _F64) -> tuple[_F64, _
     warp = (frame_to_roi @ start @ px_to_unit).astype(np.float32)
     try:
         # no mask (the stubs do not list a None mask)
-        rho, warp = cv2.findTransformECC(  # type: ignore[call-overload]
+        rho, warp = cv2.findTransformECC(  # type: ignore[call-overload, unused-ignore]
             template, roi, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, None, _ECC_SMOOTHING
         )
     except cv2.error:

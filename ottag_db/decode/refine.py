@@ -270,7 +270,7 @@ def refine_lines(
     samp32 = np.empty((s, m_fr, n_o, 2), dtype=np.float32)
     step_xy = offs[:, None] * normal[:, None, :]  # (S, O, 2)
     np.add(base[:, :, None, :], step_xy[:, None, :, :], out=samp32, casting="same_kind")
-    vals32 = cv2.remap(img, samp32.reshape(-1, n_o, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload]
+    vals32 = cv2.remap(img, samp32.reshape(-1, n_o, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload, unused-ignore]
     vals = vals32.reshape(s * m_fr, n_o).astype(np.float64)
     vals -= level
     above = vals > 0
