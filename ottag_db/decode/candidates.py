@@ -19,6 +19,7 @@ __all__ = [
     "same_quad",
     "same_tag",
     "searches_at_half_resolution",
+    "seen_before",
     "shows_print",
     "squeeze",
     "within_detection",
@@ -38,6 +39,9 @@ HALF_RES_MIN_SIDE = 6.0
 #: can still choose the tag, and the long sides keep specks and text strokes out.
 THIN_QUAD_MIN_SIDE = 0.5
 THIN_QUAD_LONG_SIDE = 3.0
+#: A foreshortened candidate that a later binarization outlines with a corner at least this far
+#: (px) from every corner of the earlier outline is read again (see :func:`seen_before`).
+OUTLINE_MOVED_PX = 1.5
 
 
 def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams) -> list[Quad]:
@@ -246,6 +250,43 @@ def same_tag(a: Detection, b: Detection) -> bool:
     bx, by = _centre(b.corners.tolist())
     (x0, y0), _, (x2, y2), _ = ac
     return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2) < 0.2 * math.sqrt((x0 - x2) ** 2 + (y0 - y2) ** 2)
+
+
+def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
+    """Whether an earlier binarization of the frame found this candidate already.
+
+    A data area found again (:func:`same_quad`) is not read twice, except a foreshortened one
+    (:func:`squeeze` at most ``max_ratio``) whose new outline has a corner
+    ``OUTLINE_MOVED_PX`` or more from every corner of the earlier one. Nearly edge-on, a data
+    area is a few pixels thin and each threshold moves its outline by a good part of that: the
+    tag seen ranked 7th–23rd among the printed tags from the local threshold's corners and 1st
+    from Otsu's (tilt sweep of benchmarks/decode_sweeps.py, 84–86°), which were dropped as the
+    same candidate.
+
+    Parameters
+    ----------
+    quad : Quad
+        A candidate of the current binarization.
+    seen : list of Quad
+        The candidates of the earlier ones.
+    max_ratio : float
+        ``DetectorParams.rectify_max_ratio``: the foreshortening from which outlines are compared.
+
+    Returns
+    -------
+    bool
+    """
+    twins = [o for o in seen if same_quad(quad, o)]
+    if not twins:
+        return False
+    if squeeze(quad) > max_ratio:
+        return True
+    corners = quad.corners
+    for o in twins:
+        gaps = np.hypot(*(corners[:, None, :] - o.corners[None, :, :]).transpose(2, 0, 1))  # (4, 4)
+        if float(gaps.min(axis=1).max()) < OUTLINE_MOVED_PX:
+            return True
+    return False
 
 
 def _centre(corners: list[list[float]]) -> tuple[float, float]:

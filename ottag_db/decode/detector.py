@@ -3,7 +3,8 @@
 Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.types`)::
 
     image        to_gray                          image → grey
-    candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads)
+    candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads;
+                                                  seen_before: a foreshortened one outlined anew)
     segmentation segment / decompose              Quad → DataArea → [Decomposition]
     triangles    (triangle fits and splits, inside decompose)
     refine       refine                           Decomposition → TriangleLines (+ quad corners)
@@ -29,9 +30,9 @@ from ottag_db.decode.candidates import (
     Binarization,
     around_detection,
     find_quads,
-    same_quad,
     same_tag,
     searches_at_half_resolution,
+    seen_before,
     within_detection,
 )
 from ottag_db.decode.identify import Catalogue
@@ -192,7 +193,7 @@ class Detector:
                 break  # the global threshold is the fallback of the local one
             if kind == "adaptive_thin" and detections:
                 break  # the last resort of a frame that read nothing: data areas seen nearly edge-on
-            quads = [q for q in find_quads(gray, kind, p) if not any(same_quad(q, o) for o in seen)]
+            quads = [q for q in find_quads(gray, kind, p) if not seen_before(q, seen, p.rectify_max_ratio)]
             seen.extend(quads)
             clock.lap("candidates")
             by_model: list[tuple[Quad, Rejection]] = []  # read by model after the pass

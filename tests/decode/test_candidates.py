@@ -16,6 +16,7 @@ from ottag_db.decode.candidates import (
     find_quads,
     same_quad,
     same_tag,
+    seen_before,
     shows_print,
     squeeze,
 )
@@ -66,6 +67,24 @@ def test_same_quad_same_tag_and_around_detection() -> None:
     frame = Quad("normal", (c - 50) * 2 + 50, 40000.0)  # the quiet zone's outline around the tag
     assert around_detection(frame, [det])
     assert not around_detection(Quad("normal", c * 0.5, 2500.0), [det])
+
+
+def test_a_thin_data_area_outlined_anew_by_a_later_binarization_is_read_again() -> None:
+    thin = Quad("normal", np.array([[0, 0], [100, 0], [100, 8], [0, 8.0]]), 800.0)
+    square = Quad("normal", np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]]), 10000.0)
+    r = DetectorParams().rectify_max_ratio
+    assert not seen_before(thin, [], r)
+    assert not seen_before(thin, [square], r)  # another data area
+    # found again by Otsu with two corners 2 px out: nearly edge-on, a new outline
+    moved = Quad("normal", thin.corners + np.array([[0, 0], [0, 0], [0, 2], [0, 2.0]]), 1000.0)
+    assert not seen_before(moved, [thin], r)
+    # the same outline within a pixel, in another corner order: seen
+    again = Quad("normal", np.roll(thin.corners, 1, axis=0) + 0.5, 800.0)
+    assert seen_before(again, [thin], r)
+    # head-on, any outline of the same data area is seen (no second reading)
+    grown = Quad("normal", square.corners + np.array([[0, 0], [0, 0], [0, 2], [0, 2.0]]), 10100.0)
+    assert seen_before(grown, [square], r)
+    assert seen_before(moved, [thin], 0.0)  # no candidate is foreshortened enough: seen
 
 
 def test_readings_must_show_the_print_at_oblique_views_and_on_small_data_areas() -> None:
