@@ -30,6 +30,7 @@ from ottag_db.decode.candidates import (
     Binarization,
     around_detection,
     find_quads,
+    same_quad,
     same_tag,
     searches_at_half_resolution,
     seen_before,
@@ -47,6 +48,7 @@ from ottag_db.decode.types import (
     Detection,
     DetectionReport,
     DetectorParams,
+    ModelGuess,
     Quad,
     Rejected,
     Rejection,
@@ -188,6 +190,11 @@ class Detector:
         if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
             passes.append("adaptive_thin")
         seen: list[Quad] = []
+        # The best tag of each refused reading by model: a rival of the data area's other
+        # outlines (seen_before). An inverted 8-point tag 26 px wide at 80° was refused from the
+        # local threshold's outline (a look-alike, ρ 0.926, next 0.922); Otsu's outline then
+        # read another look-alike unrivalled (ρ 0.933), now rivalled by the first.
+        guesses: list[tuple[Quad, ModelGuess]] = []
         for kind in passes:
             if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
                 break  # the global threshold is the fallback of the local one
@@ -222,8 +229,11 @@ class Detector:
             for quad, first in by_model:
                 result = first
                 if self._bank and not within_detection(quad, detections):
-                    result = read_model(gray, quad, first, self._bank, p, clock)
+                    rivals = tuple(g for q, g in guesses if same_quad(q, quad))
+                    result = read_model(gray, quad, first, self._bank, p, clock, rivals)
                 if isinstance(result, Rejection):
+                    if result.model_best is not None:
+                        guesses.append((quad, result.model_best))
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):
                     detections.append(result)

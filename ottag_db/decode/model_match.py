@@ -81,7 +81,7 @@ from ottag_db.decode.templates import (
     normalized_rows,
     placement,
 )
-from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
+from ottag_db.decode.types import Detection, DetectorParams, ModelGuess, Quad, Rejection
 
 __all__ = ["MODEL_CANDIDATES", "MODEL_CHALLENGERS", "confirm_by_model", "read_model", "wants_model"]
 
@@ -284,6 +284,7 @@ def read_model(
     bank: TemplateBank,
     params: DetectorParams,
     clock: StageClock,
+    rivals: tuple[ModelGuess, ...] = (),
 ) -> Detection | Rejection:
     """Read a candidate by choosing among the stored tags (see the module docstring).
 
@@ -303,12 +304,17 @@ def read_model(
         ``model_max_quiet_misfit``, ``polarities``.
     clock : StageClock
         Charged as ``"model"``.
+    rivals : tuple of ModelGuess, optional
+        The best tags of refused readings by model of the same data area from other outlines
+        (:attr:`Rejection.model_best`): rivals of the winner unless they are its tag and polarity
+        (each outline's shortlist can miss the tag seen, and a look-alike then wins unrivalled).
 
     Returns
     -------
     Detection or Rejection
         A detection with ``model_correlation`` set, points the stored realization mapped by
-        the aligned homography (frame pixels, canonical label order); else ``first``.
+        the aligned homography (frame pixels, canonical label order); else ``first`` (with
+        the best aligned tag in ``model_best`` when one was aligned).
     """
     views = _views(quad, params)
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
@@ -337,7 +343,7 @@ def read_model(
     clock.lap("model")
     if not aligned:
         return first
-    top, runner_up = _decide(aligned, unaligned, bank, params)
+    top, runner_up = _decide(aligned, unaligned, bank, params, rivals)
     if _accepted(top, runner_up, params):
         # Small, steep data areas rank the tag seen as low as 11th–58th by the coarse score
         # from the contour's corners (benchmarks/soft_decoding.py scenes, 50–110 px at
@@ -346,40 +352,48 @@ def read_model(
         challengers = _challengers(gray, roi, origin, bank, aligned, top)
         if challengers:
             aligned += challengers
-            top, runner_up = _decide(aligned, unaligned, bank, params)
+            top, runner_up = _decide(aligned, unaligned, bank, params, rivals)
         clock.lap("model")
     note = (
         f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}, misfit {top.misfit:.2f},"
         f" quiet zone {top.quiet_misfit:.2f}"
     )
     note = note.lstrip("; ")
+    best = ModelGuess(bank.entries[top.row].lambda_text, top.view.polarity, top.correlation)
     if not _accepted(top, runner_up, params):
-        return Rejection(first.reason, note, first.lambda_text, first.decomposed)
+        return Rejection(first.reason, note, first.lambda_text, first.decomposed, model_best=best)
     result = _detection(bank, top, quad)
     clock.lap("model")
-    return result if isinstance(result, Detection) else Rejection(first.reason, note, first.lambda_text)
+    if isinstance(result, Detection):
+        return result
+    return Rejection(first.reason, note, first.lambda_text, model_best=best)
 
 
 def _decide(
-    aligned: list[Aligned], unaligned: list[float], bank: TemplateBank, params: DetectorParams
+    aligned: list[Aligned],
+    unaligned: list[float],
+    bank: TemplateBank,
+    params: DetectorParams,
+    rivals: tuple[ModelGuess, ...] = (),
 ) -> tuple[Aligned, float]:
     """The best aligned tag and the correlation of the next best reading of another tag (ID or
     polarity) that fits as well: a rival that misfits somewhere, or whose quiet zone is not
     there, is explained away; a candidate ECC lost counts with its coarse score, so that a
-    failed alignment cannot make the winner look unrivalled."""
+    failed alignment cannot make the winner look unrivalled; ``rivals`` (other outlines) count."""
     aligned.sort(key=lambda a: -a.correlation)
     top = aligned[0]
     key = (bank.entries[top.row].lambda_text, top.view.polarity)
     # a rival's misfit explains it away only when it is also clearly worse than the winner's
     misfit_limit = max(params.model_max_misfit, top.misfit + params.model_misfit_lead)
-    rivals = [
+    others = [
         a.correlation
         for a in aligned
         if (bank.entries[a.row].lambda_text, a.view.polarity) != key
         and a.misfit <= misfit_limit
         and a.quiet_misfit <= params.model_max_quiet_misfit
     ]
-    return top, max(rivals + unaligned, default=-1.0)
+    earlier = [r.correlation for r in rivals if (r.lambda_text, r.polarity) != key]
+    return top, max(others + unaligned + earlier, default=-1.0)
 
 
 def _accepted(top: Aligned, runner_up: float, params: DetectorParams) -> bool:

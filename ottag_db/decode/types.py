@@ -28,6 +28,7 @@ __all__ = [
     "Detection",
     "DetectionReport",
     "DetectorParams",
+    "ModelGuess",
     "PointHypothesis",
     "Quad",
     "RejectReason",
@@ -367,6 +368,16 @@ class Quad:
 
 
 @dataclass(frozen=True)
+class ModelGuess:
+    """The tag a reading by model aligned best to a candidate it refused: ``lambda_text``,
+    ``polarity`` and the ``correlation`` of the aligned tag with the frame."""
+
+    lambda_text: str
+    polarity: Polarity
+    correlation: float
+
+
+@dataclass(frozen=True)
 class Rejection:
     """Why a stage stopped reading a candidate (converted to :class:`Rejected` by the detector).
 
@@ -375,7 +386,10 @@ class Rejection:
     a reading of the data area was refused as because the detected triangles or points are not
     that tag as printed (its stored layout or placement): the data area's other readings of
     those IDs (other decompositions, the upsampled and rectified views) must then show them as
-    printed too (:func:`~ottag_db.decode.reading.read_area`).
+    printed too (:func:`~ottag_db.decode.reading.read_area`). ``model_best`` is the tag a
+    reading by model aligned best when it refused the candidate (its ID, polarity and
+    correlation): a reading by model of the same data area from another outline must beat it by
+    ``model_min_gap`` unless it reads that tag (:func:`~ottag_db.decode.model_match.read_model`).
     """
 
     reason: RejectReason
@@ -383,6 +397,7 @@ class Rejection:
     lambda_text: str | None = None
     decomposed: bool = True
     not_printed: frozenset[str] = frozenset()
+    model_best: ModelGuess | None = None
 
     def at(self, quad: Quad) -> Rejected:
         """The public :class:`Rejected` of this rejection for the candidate ``quad``."""

@@ -9,10 +9,11 @@ from ottag_db.core.canonical import canonical_lambda
 from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.candidates import HALF_RES_MIN_SIDE, find_quads
-from ottag_db.decode.model_match import wants_model
+from ottag_db.decode.model_match import read_model, wants_model
 from ottag_db.decode.placement_check import apply_homography
+from ottag_db.decode.profile import StageClock
 from ottag_db.decode.templates import MODEL_GRID, draw_through, rasterize, template_bank
-from ottag_db.decode.types import Quad, Rejection
+from ottag_db.decode.types import Detection, ModelGuess, Quad, Rejection
 from ottag_db.printing.scenes import DrawableTag
 from tests.support.grazing import grazing_frame, grazing_set, printed_tags
 
@@ -174,3 +175,31 @@ def test_thin_quads_are_found_at_full_resolution(printed) -> None:
     assert len(thin) == 1 and thin[0].area < 2 * HALF_RES_MIN_SIDE * 100.0
     _, head_on = grazing_frame(tags, 109, 10.0)
     assert find_quads(head_on, "adaptive", p) and find_quads(head_on, "adaptive_thin", p) == []
+
+
+def test_a_rival_from_another_outline_of_the_data_area_counts(printed) -> None:
+    """Each outline of a data area nearly edge-on gets its own reading by model; the best tag of
+    a refused one (``Rejection.model_best``) is a rival of the others' winner unless it is the
+    same tag: within ``model_min_gap`` of the winner it makes the reading ambiguous."""
+    lookup, tags = printed
+    tag, image = grazing_frame(tags, 121, 84.0, "normal")
+    params = DetectorParams()
+    bank = template_bank(lookup, params.model_max_templates)
+    first = Rejection("non_triangle")
+    readings = []
+    for kind in ("adaptive", "otsu", "adaptive_thin"):
+        for quad in find_quads(image, kind, params):
+            result = read_model(image, quad, first, bank, params, StageClock())
+            if isinstance(result, Detection) and result.lambda_text == tag.lambda_text:
+                readings.append((quad, result))
+    assert readings, "no outline of the tag reads by model"
+    quad, read = readings[0]
+    rho = read.model_correlation or 0.0
+    other = next(t.lambda_text for t in tags if t.lambda_text != tag.lambda_text)
+    close = read_model(image, quad, first, bank, params, StageClock(), (ModelGuess(other, "normal", rho - 0.02),))
+    assert isinstance(close, Rejection) and close.model_best is not None
+    assert (close.model_best.lambda_text, close.model_best.polarity) == (tag.lambda_text, "normal")
+    far = read_model(image, quad, first, bank, params, StageClock(), (ModelGuess(other, "normal", rho - 0.2),))
+    same = read_model(image, quad, first, bank, params, StageClock(), (ModelGuess(tag.lambda_text, "normal", 1.0),))
+    assert isinstance(far, Detection) and isinstance(same, Detection)
+    assert far.lambda_text == same.lambda_text == tag.lambda_text
