@@ -16,6 +16,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.cluster import cluster_hypotheses
 from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.profile import StageClock
@@ -101,10 +102,13 @@ def read_area(
         return replace(area, not_printed=print_required), None
     side = area.side
     memo = FitMemo()  # the alternatives below fit the first decomposition's contours again
+    # The corners rectify outline edges well enough to tell a square marker's cells (that need
+    # no alternative search) from triangles only in a view that is not strongly foreshortened.
+    axes = area.quad if to_frame is None and squeeze(quad) > params.rectify_max_ratio else None
     decomps = decompose(area.fg, side, params, None, memo)
     if isinstance(decomps, Rejection) and alternatives is not None:
         # no plain decomposition: try the alternatives (opening, slit cuts) right away
-        decomps = decompose(area.fg, side, params, alternatives, memo)
+        decomps = decompose(area.fg, side, params, alternatives, memo, axes)
     clock.lap("triangles")
     if isinstance(decomps, Rejection):
         detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
@@ -115,7 +119,7 @@ def read_area(
         return Rejection("non_triangle", f"{decomps[0].count} triangles", not_printed=print_required), None
 
     def more() -> list[Decomposition] | Rejection:
-        alts = decompose(area.fg, side, params, alternatives, memo) if alternatives is not None else []
+        alts = decompose(area.fg, side, params, alternatives, memo, axes) if alternatives is not None else []
         clock.lap("triangles")
         return alts
 

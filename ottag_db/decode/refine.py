@@ -270,7 +270,12 @@ def refine_lines(
     samp32 = np.empty((s, m_fr, n_o, 2), dtype=np.float32)
     step_xy = offs[:, None] * normal[:, None, :]  # (S, O, 2)
     np.add(base[:, :, None, :], step_xy[:, None, :, :], out=samp32, casting="same_kind")
-    vals32 = cv2.remap(img, samp32.reshape(-1, n_o, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload, unused-ignore]
+    # One row of samples (remap takes under 32,767 per row): OpenCV splits a remap by rows
+    # among its threads, and waking them for a few thousand samples cost more than the
+    # sampling. With 2 threads 70 µs per frame as (S·M, O) rows against 20 µs as one row
+    # (benchmarks/decode_speed.py, idle machine; up to 0.8 ms under load).
+    map_rows = 1 if samp32.size < 2 * 32_000 else s * m_fr
+    vals32 = cv2.remap(img, samp32.reshape(map_rows, -1, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload, unused-ignore]
     vals = vals32.reshape(s * m_fr, n_o).astype(np.float64)
     vals -= level
     above = vals > 0
