@@ -27,8 +27,9 @@ __all__ = [
 
 _F64 = NDArray[np.float64]
 
-#: How a frame is binarized for the quad search: local mean or global Otsu threshold.
-Binarization = Literal["adaptive", "otsu", "adaptive_thin"]
+#: How a frame is binarized for the quad search: local mean or global Otsu threshold (see
+#: :func:`find_quads`).
+Binarization = Literal["adaptive", "otsu", "adaptive_thin", "bright_holes"]
 
 #: The half-resolution candidate search is used only while the smallest data area keeps at
 #: least this side (px) there.
@@ -48,17 +49,23 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     """Convex quadrilateral contours of one binarization of ``gray``, largest first.
 
     Outer contours of dark regions are candidate *normal* data areas, hole contours (bright
-    regions inside dark) candidate *inverted* ones.
+    regions inside dark) candidate *inverted* ones; with ``"bright_holes"``, hole contours of
+    the bright regions (dark regions inside a bright quiet zone) are candidate *normal* ones.
 
     Parameters
     ----------
     gray : numpy.ndarray
         ``(H, W)`` uint8 frame.
-    kind : {"adaptive", "otsu", "adaptive_thin"}
+    kind : {"adaptive", "otsu", "adaptive_thin", "bright_holes"}
         Local mean thresholding (at half resolution when :func:`searches_at_half_resolution`),
         global Otsu, or local mean thresholding at full resolution keeping only the thin quads
         (area over longest side under ``2 · HALF_RES_MIN_SIDE``) a half-resolution search
-        cannot see.
+        cannot see; ``"bright_holes"``: the pixels brighter than their local mean at full
+        resolution, keeping the foreshortened quads (:func:`squeeze` at most
+        ``rectify_max_ratio``) of their holes. Nearly edge-on, a normal data area's dark outline
+        breaks where its bright triangles blur into the quiet zone, while the inverted one's
+        is a hole in the dark quiet zone whatever its triangles do; this pass finds the normal
+        one as that hole too.
     params : DetectorParams
         Uses the binarization, polarity, size and ``max_candidates`` settings.
 
@@ -77,6 +84,9 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     f = 1
     if kind == "otsu":
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+    elif kind == "bright_holes":
+        block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
+        mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
     else:
         block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
         src: NDArray[Any] = gray
@@ -99,6 +109,10 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if len(c) < min_len:
             continue
         inverted = bool(parents[i] >= 0)
+        if kind == "bright_holes":
+            if not inverted:
+                continue  # a bright region: the dark mask's passes outline it
+            inverted = False  # a dark hole in a bright quiet zone: a normal data area
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
         approx = cv2.approxPolyDP(c, 0.03 * len(c), True)
@@ -136,6 +150,8 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             continue
         polarity: Polarity = "inverted" if inverted else "normal"
         cand = Quad(polarity, clockwise(q), area)
+        if kind == "bright_holes" and squeeze(cand) > p.rectify_max_ratio:
+            continue
         if not any(same_quad(cand, o) for o in quads):
             quads.append(cand)
     quads.sort(key=lambda qq: -qq.area)

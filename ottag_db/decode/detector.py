@@ -3,8 +3,9 @@
 Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.types`)::
 
     image        to_gray                          image → grey
-    candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads;
-                                                  seen_before: a foreshortened one outlined anew)
+    candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads,
+                                                  then holes of the bright mask; seen_before: a
+                                                  foreshortened one outlined anew)
     segmentation segment / decompose              Quad → DataArea → [Decomposition]
     triangles    (triangle fits and splits, inside decompose)
     refine       refine                           Decomposition → TriangleLines (+ quad corners)
@@ -189,6 +190,8 @@ class Detector:
             passes.append("otsu")
         if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
             passes.append("adaptive_thin")
+        if p.use_adaptive and "normal" in p.polarities:
+            passes.append("bright_holes")
         seen: list[Quad] = []
         # The best tag of each refused reading by model: a rival of the data area's other
         # outlines (seen_before). An inverted 8-point tag 26 px wide at 80° was refused from the
@@ -198,8 +201,8 @@ class Detector:
         for kind in passes:
             if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
                 break  # the global threshold is the fallback of the local one
-            if kind == "adaptive_thin" and detections:
-                break  # the last resort of a frame that read nothing: data areas seen nearly edge-on
+            if kind in ("adaptive_thin", "bright_holes") and detections:
+                break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
             quads = [q for q in find_quads(gray, kind, p) if not seen_before(q, seen, p.rectify_max_ratio)]
             seen.extend(quads)
             clock.lap("candidates")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -109,3 +110,26 @@ def test_squeeze_is_the_singular_value_ratio_of_the_diagonals(coords: list[float
     sv = np.linalg.svd(np.stack([q[2] - q[0], q[3] - q[1]], axis=1), compute_uv=False)
     expected = sv[1] / sv[0] if sv[0] > 1e-9 else 0.0
     assert squeeze(Quad("normal", q, 1.0)) == pytest.approx(expected, abs=1e-6)
+
+
+def test_the_bright_holes_pass_finds_foreshortened_normal_data_areas_only() -> None:
+    """A thin dark data area inside a white quiet zone, its bright triangles close to its border,
+    is a hole of the bright mask: found, as a normal quad. A head-on dark square is left to the
+    dark passes, and bright regions are no candidates of this pass."""
+    img = np.full((240, 320), 150, np.uint8)
+    zone = np.array([[40, 90], [280, 70], [282, 110], [42, 130]], np.int32)
+    area = np.array([[60, 94], [260, 77], [261, 104], [61, 121]], np.int32)
+    cv2.fillPoly(img, [zone], 255)
+    cv2.fillPoly(img, [area], 30)
+    for x in (90, 150, 210):  # bright triangles 2 px inside the data area's upper side
+        y = 94 - (x - 60) * 17 / 200 + 2
+        cv2.fillPoly(img, [np.array([[x, y], [x + 30, y - 2.5], [x + 15, y + 14]], np.int32)], 255)
+    cv2.rectangle(img, (20, 170), (80, 230), 255, -1)
+    cv2.rectangle(img, (32, 182), (68, 218), 30, -1)  # a head-on normal data area
+    img = cv2.GaussianBlur(img, (0, 0), 0.8)
+    found = find_quads(img, "bright_holes", DetectorParams())
+    assert found and all(q.polarity == "normal" for q in found)
+    assert all(squeeze(q) <= DetectorParams().rectify_max_ratio for q in found)
+    assert not any(q.corners[:, 1].min() > 160 for q in found)  # not the head-on square
+    miss = [float(np.abs(np.sort(q.corners, axis=0) - np.sort(area, axis=0)).max()) for q in found]
+    assert min(miss) < 3.0

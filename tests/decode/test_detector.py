@@ -550,3 +550,31 @@ def test_a_thin_tag_outlined_better_by_the_global_threshold_is_read(bundled, pre
     read on none of 6 renders each before."""
     lam, readings = _normal_tag_readings(bundled, prefix, hom, blur, noise, gradient)
     assert readings == [[lam], [lam]]
+
+
+@pytest.mark.parametrize(
+    ("prefix", "hom", "blur", "noise", "gradient"),
+    [
+        (
+            "8:06543210006354211003654223304333310206",
+            [[-95.871203, -25.604264, 346.291447], [5.966462, -41.992526, 260.572075], [-0.023344, -0.126657, 1]],
+            0.59,
+            2.7,
+            0.08,
+        ),
+        (
+            "8:06543210001645321505432120103654322304",
+            [[54.570271, -102.38266, 343.301434], [42.77418, 13.438711, 242.327915], [0.150519, 0.008177, 1]],
+            0.58,
+            0.59,
+            0.04,
+        ),
+    ],
+)
+def test_a_thin_normal_tag_found_as_a_hole_of_its_quiet_zone_is_read(bundled, prefix, hom, blur, noise, gradient):
+    """Normal 8-point tags of the tilt sweep at 84° and 86° (21 cm at 1.5 m) that the dark
+    passes never outlined well enough to read: the pass over the bright quiet zone's holes
+    (``find_quads(..., "bright_holes")``) outlines the data area as an inverted tag's is
+    outlined, and the tag reads; it read on neither render before."""
+    lam, readings = _normal_tag_readings(bundled, prefix, hom, blur, noise, gradient)
+    assert readings == [[lam], [lam]]
