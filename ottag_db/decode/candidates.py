@@ -82,13 +82,12 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     # ``HALF_RES_MIN_SIDE`` px there; quads are mapped back (half-res pixel u covers image
     # pixels 2u, 2u + 1: centre 2u + 0.5) and their sides are refined on the full image.
     f = 1
+    block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)  # local mean window (px)
     if kind == "otsu":
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
     elif kind == "bright_holes":
-        block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
         mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
     else:
-        block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)
         src: NDArray[Any] = gray
         if kind == "adaptive" and searches_at_half_resolution(gray.shape, p):
             f = 2

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.image import otsu
+from ottag_db.decode.placement_check import square_homography
 from ottag_db.decode.splitting import FitBudget, FitMemo, SearchBudget, component_decompositions
 from ottag_db.decode.triangles import triangle_fit
 from ottag_db.decode.types import DataArea, Decomposition, DetectorParams, Quad, Rejection
@@ -28,7 +29,6 @@ __all__ = [
     "segment",
     "then_alternatives",
     "triangles_by_opening",
-    "unit_homography",
 ]
 
 _F64 = NDArray[np.float64]
@@ -162,7 +162,8 @@ def decompose(
     strict = None if alternatives is None else FitBudget(alternatives.strict_fits)
     # data-area units of the ROI, to recognise the cells of square markers (ArUco, AprilTag,
     # QR) that the alternative searches would otherwise cut for their whole budget
-    to_unit = None if alternatives is None or quad is None else unit_homography(quad)
+    to_frame = None if alternatives is None or quad is None else square_homography(quad)
+    to_unit: _F64 | None = None if to_frame is None else np.asarray(np.linalg.inv(to_frame), dtype=np.float64)
     # Every component is checked before any is split: a component too large for a triangle
     # refuses the data area at once. The white paper around an ArUco marker, outlined as a
     # normal data area, held the marker's cells too; splitting them first cost 8–18 ms.
@@ -213,14 +214,6 @@ def decompose(
     return out
 
 
-def unit_homography(quad: _F64) -> _F64:
-    """``(3, 3)`` homography from image pixels to data-area units (``quad``'s corners, in order
-    around it, to the unit square's; which corner goes first does not matter to
-    :func:`rectilinear`, as a quarter turn or a reflection keeps the axes)."""
-    dst = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
-    return np.asarray(cv2.getPerspectiveTransform(quad.astype(np.float32), dst), dtype=np.float64)
-
-
 def rectilinear(contour: NDArray[Any], to_unit: _F64, side: float) -> bool:
     """Whether a component's outline runs only along the data area's axes (a square marker's cells).
 
@@ -238,7 +231,9 @@ def rectilinear(contour: NDArray[Any], to_unit: _F64, side: float) -> bool:
     contour : numpy.ndarray
         ``(n, 1, 2)`` integer outer contour of the component (pixels).
     to_unit : numpy.ndarray
-        ``(3, 3)`` homography pixels → data-area units (:func:`unit_homography`).
+        ``(3, 3)`` homography pixels → data-area units (the inverse of
+        :func:`~ottag_db.decode.placement_check.square_homography`; which corner comes first
+        does not matter, as a quarter turn or a reflection keeps the axes).
     side : float
         Data-area side (√area, pixels).
 

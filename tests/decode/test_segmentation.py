@@ -8,6 +8,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from ottag_db.decode import DetectorParams
+from ottag_db.decode.placement_check import square_homography
 from ottag_db.decode.segmentation import (
     NO_DECOMPOSITION,
     bridge,
@@ -15,7 +16,6 @@ from ottag_db.decode.segmentation import (
     rectilinear,
     segment,
     then_alternatives,
-    unit_homography,
 )
 from ottag_db.decode.splitting import FRAME_SEARCH, FitMemo
 from ottag_db.decode.types import DataArea, Decomposition, Quad, Rejection
@@ -105,6 +105,12 @@ _CELLS = (
 _UNIT = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float64)
 
 
+def _to_unit(corners: np.ndarray) -> np.ndarray:
+    hom = square_homography(corners)
+    assert hom is not None
+    return np.linalg.inv(hom)
+
+
 def _outline(shape: np.ndarray, corners: np.ndarray, size: int) -> np.ndarray:
     """The outer contour of ``shape`` (data-area units) drawn into the quad ``corners``."""
     hom = cv2.getPerspectiveTransform(_UNIT.astype(np.float32), corners.astype(np.float32))
@@ -137,7 +143,7 @@ def test_no_triangle_is_rectilinear_under_any_view(
     assume(abs(d[0, 0] * d[1, 1] - d[0, 1] * d[1, 0]) * side * side > 200)  # not a speck or a line
     assume(_most_tilted_side_deg(shape) >= 7.2)
     corners = _UNIT * side + 20 + np.reshape(jitter, (4, 2)) * side
-    assert not rectilinear(_outline(shape, corners, int(side * 1.4) + 40), unit_homography(corners), side)
+    assert not rectilinear(_outline(shape, corners, int(side * 1.4) + 40), _to_unit(corners), side)
 
 
 def test_square_marker_cells_are_rectilinear_in_any_order_of_the_corners() -> None:
@@ -146,9 +152,9 @@ def test_square_marker_cells_are_rectilinear_in_any_order_of_the_corners() -> No
         for shape in _CELLS:
             contour = _outline(np.array(shape), corners, int(side * 1.4) + 40)
             for first in range(4):  # a quarter turn of the data area keeps its axes
-                assert rectilinear(contour, unit_homography(np.roll(corners, first, axis=0)), side)
+                assert rectilinear(contour, _to_unit(np.roll(corners, first, axis=0)), side)
         tri = np.array([[0.2, 0.2], [0.8, 0.2], [0.8, 0.276]])  # legs on both axes, 7.2° hypotenuse
-        assert not rectilinear(_outline(tri, corners, int(side * 1.4) + 40), unit_homography(corners), side)
+        assert not rectilinear(_outline(tri, corners, int(side * 1.4) + 40), _to_unit(corners), side)
 
 
 def test_a_square_markers_cells_get_no_alternative_search() -> None:
