@@ -162,8 +162,8 @@ def decompose(
     strict = None if alternatives is None else FitBudget(alternatives.strict_fits)
     # data-area units of the ROI, to recognise the cells of square markers (ArUco, AprilTag,
     # QR) that the alternative searches would otherwise cut for their whole budget
-    to_frame = None if alternatives is None or quad is None else square_homography(quad)
-    to_unit: _F64 | None = None if to_frame is None else np.asarray(np.linalg.inv(to_frame), dtype=np.float64)
+    from_unit = None if alternatives is None or quad is None else square_homography(quad)
+    to_unit: _F64 | None = None if from_unit is None else np.asarray(np.linalg.inv(from_unit), dtype=np.float64)
     # Every component is checked before any is split: a component too large for a triangle
     # refuses the data area at once. The white paper around an ArUco marker, outlined as a
     # normal data area, held the marker's cells too; splitting them first cost 8–18 ms.
@@ -221,10 +221,10 @@ def rectilinear(contour: NDArray[Any], to_unit: _F64, side: float) -> bool:
     :data:`RECTILINEAR_MIN_EDGE_PX` (or :data:`RECTILINEAR_MIN_EDGE_REL` of ``side``) long
     gets a line fitted to the contour points along its middle 70 %; mapped to data-area
     units, every such line must lie within :data:`RECTILINEAR_MAX_DEG` (plus
-    ``atan(1 px / length)``) of an axis, and there must be at least three of them. A union of triangles meeting at
-    vertices keeps every triangle's sides on its outline, and every triangle has a side off
-    both axes, so it is never rectilinear (short edges, as at a blurred shared vertex, are
-    not judged).
+    ``atan(1 px / length)``) of an axis, and there must be at least three of them. A union
+    of triangles meeting at vertices keeps every triangle's sides on its outline, and every
+    triangle has a side off both axes, so it is never rectilinear (short edges, as at a
+    blurred shared vertex, are not judged).
 
     Parameters
     ----------
