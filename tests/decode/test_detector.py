@@ -17,6 +17,7 @@ from ottag_db.core.lookup import MemoryLookup
 from ottag_db.core.single_set import read_set
 from ottag_db.decode import REJECTION_REASONS, Detection, Detector, DetectorParams, Rejected, to_gray
 from ottag_db.errors import DecodeError, OttagError, UsageError
+from ottag_db.printing import clutter
 from ottag_db.printing import scenes as sc
 from tests.support.tagsynth import scene_data
 
@@ -176,36 +177,10 @@ def test_dictionary_polarity(bundled):
 
 # ---------------------------------------------------------------------- negatives
 def _negative_frames(seed: int, n: int):
+    """``n`` frames of markers, checkerboards and text, then 6 of noise."""
     rng = np.random.default_rng(seed)
-    k_mat = sc.camera_matrix()
-    dicts = [cv2.aruco.DICT_6X6_250, cv2.aruco.DICT_APRILTAG_36h11, cv2.aruco.DICT_4X4_50]
-    for i in range(n):
-        patches = []
-        for j in range(3):
-            kind = (i + j) % 5
-            if kind < 3:
-                d = cv2.aruco.getPredefinedDictionary(dicts[kind])
-                img = cv2.aruco.generateImageMarker(d, int(rng.integers(30)), 240)
-                img = cv2.copyMakeBorder(img, 60, 60, 60, 60, cv2.BORDER_CONSTANT, value=255)
-            elif kind == 3:
-                sq = int(rng.integers(4, 9))
-                img = ((np.indices((sq, sq)).sum(axis=0) % 2) * 255).astype(np.uint8)
-                img = cv2.resize(img, (240, 240), interpolation=cv2.INTER_NEAREST)
-                img = cv2.copyMakeBorder(img, 30, 30, 30, 30, cv2.BORDER_CONSTANT, value=255)
-            else:
-                img = np.full((200, 300), 255, np.uint8)
-                cv2.rectangle(img, (20, 20), (280, 180), 0, -1)
-                for row in range(3):
-                    cv2.putText(img, "AVW7>4", (30, 70 + 45 * row), cv2.FONT_HERSHEY_SIMPLEX, 1.4, 255, 3)
-            width = rng.uniform(80, 160)
-            r_mat, t = sc.random_pose(rng, k_mat, 0.1, width, rng.uniform(0, 50), (110 + 210 * j, 240))
-            patches.append((img, sc.pose_homography(k_mat, r_mat, t, 0.1)))
-        scene = sc.render_scene((480, 640), [], rng, blur=rng.uniform(0, 1), noise=rng.uniform(0, 5),
-                                gradient=rng.uniform(0, 0.5), jpeg=70, extra=patches)  # fmt: skip
-        yield scene.image
-    for _ in range(3):
-        yield rng.integers(0, 256, (480, 640), dtype=np.uint8)
-        yield cv2.GaussianBlur(rng.integers(0, 256, (480, 640), dtype=np.uint8), (0, 0), 3)
+    yield from clutter.clutter_frames(rng, n)
+    yield from clutter.noise_frames(rng, 3)
 
 
 def test_negatives(bundled):
