@@ -100,7 +100,8 @@ class Detector:
     whose smallest margin is below ``min_margin_px``,
     soft decoding (:mod:`~ottag_db.decode.soft`): the reading with up to ``soft_max_flips`` of
     its near-collinear triples reversed, each candidate the lookup holds verified, accepted
-    only when exactly one verifies, ahead of every other by ``soft_min_fit_gap``.
+    only when exactly one verifies, ahead of every other by ``soft_min_fit_gap`` (and, on a
+    data area under ``print_check_side_px``, only when the reading by model reads that tag too).
 
     The detector holds only immutable settings and the lookup: :meth:`detect` keeps no state
     between calls and may run on several threads at once (the lookup must allow concurrent

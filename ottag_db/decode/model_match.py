@@ -39,10 +39,10 @@ placement), so the image can *choose among the stored tags* instead (issue 13, s
    (data areas of 16–23 px at 69–81°) the tag seen ranked 2nd in the winner's own turn but
    behind tags of the other turns, hence the challengers of its own turn (3 wrong IDs in 5,100
    frames of those scenes with tags of 25–60 px at 55–85°).
-5. **Check.** A small data area's reading that was not by model and whose points miss the
-   reprojection bound (kept when nothing fitted better) is checked: the tag read is aligned
-   first, and unless it fits as printed, the candidate is read by model; if the model reads
-   another tag, the candidate is refused (:func:`confirm_by_model`).
+5. **Check.** A small data area's reading not by model whose points miss the reprojection
+   bound (kept when nothing fitted better) stands if the tag read, aligned, fits as printed;
+   else, and always when soft-decoded, the candidate is read by model and refused when that
+   reads another tag (a soft-decoded one also when it reads none; :func:`confirm_by_model`).
 
 The ID is still an order type: the image only chooses which stored one it shows, so a tag
 drawn with other triangles or another placement is not read this way. The detector runs this
@@ -136,15 +136,15 @@ def confirm_by_model(
     params: DetectorParams,
     clock: StageClock,
 ) -> Detection | Rejection:
-    """A small data area's reading whose points miss the reprojection bound, checked by model.
+    """A small data area's loose reading (points off the bound, or soft-decoded), checked by model.
 
-    Such a reading is kept when nothing fits better (a sharp tip's point slides along its
-    bisector, see :func:`~ottag_db.decode.reading.points_fit`), but on a small data area it can
-    also be a tag whose vertices merged: an 8-point tag 36 px wide at 58° read as a 7-point type
-    with its points 1.07 × the bound off, while the reading by model of the same candidate
-    read the tag seen. The tag read is aligned first (one ECC alignment): when it fits as
-    printed within the ``model_*`` limits the reading stands; else the candidate is read by
-    model, and when that reads another tag, the candidate is refused.
+    Points off the bound are kept when nothing fits better (a sharp tip's point slides along
+    its bisector, :func:`~ottag_db.decode.reading.points_fit`), but an 8-point tag 36 px wide at
+    58° whose vertices merged read so as a 7-point type, and by model as the tag seen. The tag
+    read is aligned first (one ECC alignment): fitting as printed (``model_*`` limits) it stands;
+    else the candidate is read by model and refused when that reads another tag. A soft-decoded
+    reading must be read the same by model: 8-point tags 40 px wide at 64–67° whose tips merged
+    were soft-decoded as 7- and 6-point look-alikes (same triangles, placement and print fit).
 
     Parameters
     ----------
@@ -165,31 +165,31 @@ def confirm_by_model(
     Returns
     -------
     Detection or Rejection
-        ``reading``, or a ``"verification"`` rejection naming both readings.
+        ``reading``, or a ``"verification"`` rejection naming both readings (or, for a
+        soft-decoded one, why the model read none).
     """
+    soft = reading.corrected_flips is not None
     if (
         not params.model_match
         or reading.model_correlation is not None
         or math.sqrt(quad.area) >= params.print_check_side_px
-        or points_fit(reading, quad, params)
+        or (not soft and points_fit(reading, quad, params))
     ):
         return reading
-    if _shows_own_print(gray, reading, bank, params):
+    if not soft and _shows_own_print(gray, reading, bank, params):
         clock.lap("model")
         return reading  # the tag read fits the image as printed: nothing to dispute
     error = reading.reprojection_error_px
     detail = f"points {error:.2f} px off" if error is not None else "no reprojection error"
+    detail = f"soft-decoded ({reading.corrected_flips} flips)" if soft else detail
     check = read_model(gray, quad, Rejection("verification", detail, reading.lambda_text), bank, params, clock)
-    if not isinstance(check, Detection):
-        return reading
+    if isinstance(check, Rejection):  # the model reads nothing: only a soft reading needed it to
+        why = f"{detail} as {reading.lambda_text}; by model: {check.detail}"
+        return Rejection("verification", why, reading.lambda_text) if soft else reading
     if (check.lambda_text, check.polarity) == (reading.lambda_text, reading.polarity):
         return reading
-    return Rejection(
-        "verification",
-        f"{detail} as {reading.lambda_text}; by model {check.lambda_text} ({check.polarity}),"
-        f" ρ {check.model_correlation:.2f}",
-        reading.lambda_text,
-    )
+    why = f"{detail} as {reading.lambda_text}; by model {check.lambda_text} ({check.polarity})"
+    return Rejection("verification", f"{why}, ρ {check.model_correlation:.2f}", reading.lambda_text)
 
 
 def _shows_own_print(gray: NDArray[np.uint8], reading: Detection, bank: TemplateBank, params: DetectorParams) -> bool:

@@ -16,7 +16,10 @@ realization's (:func:`confirms`): a flipped chirotope that no point set realizes
 reported. A corrected reading must also have the triangles printed for that realization
 (:func:`layout_matches`): a tag that lost a vertex (two close vertices merged) or gained one
 reads as a well-fitting set of k − 1 or k + 1 points, which verification at a few pixels per
-tag cannot tell from a real tag of that k, but its triangles are not that tag's.
+tag cannot tell from a real tag of that k, but its triangles are not that tag's. On a small
+data area the detector also has a corrected reading read the same by model
+(:func:`~ottag_db.decode.model_match.confirm_by_model`): tags 40 px wide whose sliver tips merged
+read as look-alikes of fewer points, triangles and placement included.
 """
 
 from __future__ import annotations

@@ -456,6 +456,44 @@ def test_a_small_reading_off_its_points_is_refused_when_the_model_reads_another_
         assert f"by model {lam}" in disputes[0].detail
 
 
+@pytest.mark.parametrize(
+    ("lam", "hom", "blur", "gradient"),
+    [
+        (  # 40 px at 64°: read as a 7-point type under the margin, as measured (0 flips)
+            "8:0654321000123546150534212410243533340323412230545243410260513240",
+            [[-27.778434, 22.377159, 373.266962], [18.013521, -12.07548, 275.959809], [0.023790, 0.046995, 1]],
+            0.3,
+            0.15,
+        ),
+        (  # 40 px at 67°: read as a 6-point type with one triple flipped
+            "8:0654321000123456150432152420234433340233424340225152340160123450",
+            [[-4.480269, 32.461569, 320.027737], [-22.203181, 24.539769, 240.090281], [-0.050838, 0.005169, 1]],
+            0.5,
+            0.22,
+        ),
+    ],
+)
+def test_a_small_soft_decoded_reading_must_be_confirmed_by_model(bundled, lam, hom, blur, gradient):
+    """Normal 8-point tags about 40 px wide at 64–67° (benchmarks/soft_decoding.py --width 25
+    60 --tilt 55 85, seeds 22 and 21) whose sliver tips merged: the remaining points read as a
+    7- or 6-point type under the 1 px margin, soft decoding accepted it, and the tag of that
+    type showed the same triangles where the placement prints them (0.05 of the side off), on
+    6 and 10 of 12 renders. A soft-decoded reading of a small data area must now be read the same
+    by model: there the tag seen and the look-alike align with ρ 0.99 and 0.95–0.97, neither
+    leads, and the candidate is refused."""
+    lookup, records = bundled
+    tag = next(t for t in records if t.lambda_text == lam)
+    det = Detector(lookup)
+    for seed in range(2):
+        spec = sc.TagSpec(tag.points, tag.triangles, np.array(hom), "normal", placement=tag.placement)
+        image = sc.render_scene(
+            (480, 640), [spec], np.random.default_rng(seed), blur=blur, noise=2.0, gradient=gradient, jpeg=85
+        ).image
+        dets, rejected = det.detect_with_rejections(image)
+        assert [d.lambda_text for d in dets if d.lambda_text != lam] == []
+        assert any(r.reason == "verification" and "soft-decoded" in r.detail for r in rejected)
+
+
 def _normal_tag_readings(bundled, prefix, hom, blur, noise, gradient):
     """A normal tag (its ID starting with ``prefix``) rendered at ``hom`` with seeds 0 and 1
     (JPEG 85): its ID and the IDs read on each render."""
