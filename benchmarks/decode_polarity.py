@@ -90,4 +90,6 @@ if __name__ == "__main__":
     args = ap.parse_args()
     if args.poses < 1 or not 0 <= args.background <= 255:
         ap.error("--poses must be at least 1 and --background within 0…255")
+    if not all(0 <= t < 90 for t in args.tilts):
+        ap.error("--tilts must lie in 0…90° (90 and beyond: the tag is seen edge-on or from behind)")
     main(args.poses, args.tilts, args.background, args.seed)
