@@ -202,7 +202,8 @@ class Detector:
         for kind in passes:
             if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
                 break  # the global threshold is the fallback of the local one
-            if kind in ("adaptive_thin", "bright_holes") and detections:
+            edge_on = kind in ("adaptive_thin", "bright_holes")
+            if edge_on and detections:
                 break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
             quads = [q for q in find_quads(gray, kind, p) if not seen_before(q, seen, p.rectify_max_ratio)]
             seen.extend(quads)
@@ -223,7 +224,8 @@ class Detector:
                     if isinstance(result, Rejection):
                         rejected.append(result.at(quad))  # two readings disagree: not read by model again
                         continue
-                if isinstance(result, Rejection) and self._bank and wants_model(quad, result, _RETRY_UPSAMPLED, p):
+                wanted = isinstance(result, Rejection) and wants_model(quad, result, _RETRY_UPSAMPLED, p, edge_on)
+                if isinstance(result, Rejection) and self._bank and wanted:
                     by_model.append((quad, result))
                 elif isinstance(result, Rejection):
                     rejected.append(result.at(quad))

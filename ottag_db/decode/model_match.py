@@ -10,8 +10,9 @@ placement), so the image can *choose among the stored tags* instead (issue 13, s
    data area (:class:`~ottag_db.decode.templates.TemplateBank`, built with the detector). The
    candidate's data area is warped to the same grid in its four rotations (and, for a dark
    quad, as the quiet zone of an inverted tag whose white data area was not found as a quad of
-   its own); one matrix product scores every template against every view by normalized
-   correlation.
+   its own), from the contour's corners and from corners aligned to a tag's outline
+   (:func:`~ottag_db.decode.model_align.outline_views`); one matrix product scores every
+   template against every view by normalized correlation.
 2. **Refinement.** The best few tags (distinct IDs) are each aligned to the frame by OpenCV's
    ECC (:func:`cv2.findTransformECC`, a homography from a finer template of the data area and
    a band of its quiet zone), which also corrects the whole-pixel contour corners.
@@ -68,9 +69,8 @@ from ottag_db.decode.model_align import (
     Aligned,
     View,
     align,
-    ecc,
-    fine_template,
     neighbourhood,
+    outline_views,
 )
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
@@ -102,7 +102,9 @@ _QUARTER_TURNS = tuple(
 _MIN_COARSE = 0.35
 
 
-def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams) -> bool:
+def wants_model(
+    quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams, edge_on_pass: bool = False
+) -> bool:
     """Whether a candidate no reading decoded is read by model (see the module docstring).
 
     Parameters
@@ -118,14 +120,27 @@ def wants_model(quad: Quad, first: Rejection, retry_reasons: frozenset[str], par
         ``model_match`` (False turns the stage off); only quads foreshortened to at most
         ``rectify_max_ratio`` and data areas with a side under ``model_max_side_px`` are read
         by model.
+    edge_on_pass : bool, optional
+        The candidate comes from a last-resort pass for data areas seen nearly edge-on
+        (``"adaptive_thin"``, ``"bright_holes"``, which run only on a frame that read nothing):
+        a foreshortened one refused as ``"low_contrast"`` is read by model too. A normal data
+        area at 86–87° is 4–6 px thin and dark up to its outline, its slivers blurred into the
+        quiet zone: inside the band that segmentation leaves out, nothing but dark shows. In
+        the other passes such quads are mostly thin dark strips of clutter (one frame in four
+        of benchmarks/decode_speed.py, 10–90 ms each by model).
 
     Returns
     -------
     bool
     """
-    if not params.model_match or not (first.reason in retry_reasons or first.reason == "no_triangles"):
+    if not params.model_match:
         return False
-    return squeeze(quad) <= params.rectify_max_ratio or math.sqrt(quad.area) < params.model_max_side_px
+    foreshortened = squeeze(quad) <= params.rectify_max_ratio
+    if first.reason == "low_contrast":
+        return edge_on_pass and foreshortened
+    if not (first.reason in retry_reasons or first.reason == "no_triangles"):
+        return False
+    return foreshortened or math.sqrt(quad.area) < params.model_max_side_px
 
 
 def confirm_by_model(
@@ -225,26 +240,6 @@ def _views(quad: Quad, params: DetectorParams) -> list[View]:
     return [v for v in views if v.polarity in params.polarities]
 
 
-def _outline_views(roi: _F32, origin: _F64, views: list[View], side: float) -> list[View]:
-    """The views again with corners aligned by ECC to a blank tag (quiet band, dark data area):
-    at a grazing view the contour's whole-pixel corners are off by a large part of the data
-    area's short side, and the coarse match then ranks the tag seen below look-alikes."""
-    out: list[View] = []
-    for polarity in ("normal", "inverted"):
-        first = next((v for v in views if v.polarity == polarity), None)
-        if first is None:
-            continue
-        found = ecc(roi, origin, fine_template(np.zeros((0, 3, 2)), polarity), first.corners)
-        if found is None:
-            continue
-        corners = apply_homography(found[0], UNIT_SQUARE)
-        # an alignment that wandered off the quad is no better start
-        if not np.isfinite(corners).all() or np.abs(corners - first.corners).max() > 0.25 * side + 3:
-            continue
-        out += [View(np.roll(corners, -r, axis=0), polarity) for r in range(4)]
-    return out
-
-
 def _sample(gray: NDArray[np.uint8], to_frame: _F64, lo: float, hi: float, size: int) -> _F32 | None:
     """The frame over the window ``[lo, hi]²`` of the data area, ``size²`` cells, area-averaged
     from a 4× finer bilinear warp. None when the map is degenerate."""
@@ -319,7 +314,7 @@ def read_model(
     views = _views(quad, params)
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
     roi, origin = neighbourhood(gray, [view.corners for view in views])
-    views += _outline_views(roi, origin, views, math.sqrt(quad.area))
+    views += outline_views(roi, origin, views, math.sqrt(quad.area), quad.polarity)
     kept, rows = _coarse_samples(gray, [(view, square_homography(view.corners)) for view in views])
     if not kept:
         clock.lap("model")

@@ -34,10 +34,24 @@ def grazing_frame(
 ) -> tuple[DrawableTag, NDArray[np.uint8]]:
     """A 21 cm tag at 1.5 m (98 px frontal, f = 700 px) tilted ``tilt`` degrees (blur σ 0.5 px,
     noise σ 2, JPEG 90); the tag is ``tags[seed % len(tags)]``."""
+    tag, spec, rng = _grazing_spec(tags, seed, tilt, polarity)
+    return tag, sc.render_scene((480, 640), [spec], rng, blur=0.5, noise=2.0, jpeg=90).image
+
+
+def grazing_corners(
+    tags: list[DrawableTag], seed: int, tilt: float, polarity: Polarity = "normal"
+) -> NDArray[np.float64]:
+    """The ``(4, 2)`` data-area corners (frame pixels, tag order) of :func:`grazing_frame`'s tag."""
+    _, spec, _ = _grazing_spec(tags, seed, tilt, polarity)
+    return sc.project(spec.homography, np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+
+
+def _grazing_spec(
+    tags: list[DrawableTag], seed: int, tilt: float, polarity: Polarity
+) -> tuple[DrawableTag, sc.TagSpec, np.random.Generator]:
     rng = np.random.default_rng(seed)
     tag = tags[seed % len(tags)]
-    spec = sc.posed_spec(tag, rng, 98.0, tilt, polarity)
-    return tag, sc.render_scene((480, 640), [spec], rng, blur=0.5, noise=2.0, jpeg=90).image
+    return tag, sc.posed_spec(tag, rng, 98.0, tilt, polarity), rng
 
 
 def grazing_set() -> list[tuple[int, float, Polarity]]:
