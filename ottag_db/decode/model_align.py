@@ -165,6 +165,18 @@ def to_roi(origin: _F64) -> _F64:
     return np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
 
 
+#: The outline templates of :func:`align_outline` and the blank tags it aligns a data area read
+#: inside a quad of the other polarity to, per polarity (constant: built once at import).
+_OUTLINE_TEMPLATES: dict[Polarity, _F32] = {
+    "normal": _quiet_ring(_OUTLINE_BAND),
+    "inverted": np.float32(1.0) - _quiet_ring(_OUTLINE_BAND),
+}
+_BLANK_TEMPLATES: dict[Polarity, _F32] = {
+    "normal": fine_template(np.zeros((0, 3, 2)), "normal"),
+    "inverted": fine_template(np.zeros((0, 3, 2)), "inverted"),
+}
+
+
 def ecc(
     roi: _F32,
     origin: _F64,
@@ -242,11 +254,9 @@ def align_outline(roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, in
         ``(3, 3)`` homography data-area units → frame pixels, or None when ECC fails.
     """
     if inside:
-        found = ecc(roi, origin, fine_template(np.zeros((0, 3, 2)), polarity), corners)
+        found = ecc(roi, origin, _BLANK_TEMPLATES[polarity], corners)
     else:
-        ring = _quiet_ring(_OUTLINE_BAND)
-        template: _F32 = ring if polarity == "normal" else np.float32(1.0) - ring
-        found = ecc(roi, origin, template, corners, _OUTLINE_PX_TO_UNIT, _OUTLINE_MASK)
+        found = ecc(roi, origin, _OUTLINE_TEMPLATES[polarity], corners, _OUTLINE_PX_TO_UNIT, _OUTLINE_MASK)
     return None if found is None else found[0]
 
 
