@@ -10,6 +10,7 @@ __all__ = [
     "COMPLETE_COUNTS_UP_TO_REFLECTION",
     "MP_THRESHOLDS",
     "POLARITIES",
+    "QUIET_ZONE",
     "Polarity",
     "ProgressCallback",
     "StageProgress",
@@ -19,6 +20,10 @@ __all__ = [
 #: ``inverted`` (tones swapped).
 Polarity = Literal["normal", "inverted"]
 POLARITIES: tuple[Polarity, ...] = ("normal", "inverted")
+
+#: Width of the quiet zone ``export`` prints around a data area, on each side, in data-area
+#: units (the printing default; the decoder expects it where it looks past the data area).
+QUIET_ZONE = 0.25
 
 #: Progress report of long work: ``callback(done, total)``, both counts of the same unit.
 ProgressCallback = Callable[[int, int], None]

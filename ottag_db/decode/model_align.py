@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from ottag_db.core.types import Polarity
+from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
 
@@ -56,8 +56,8 @@ _FINE_PX_TO_UNIT = np.array(
 _FINE_BAND_CELLS = np.ones((_FINE_GRID, _FINE_GRID), dtype=bool)
 _FINE_BAND_CELLS[3:-3, 3:-3] = False
 #: The quiet zone assumed when a dark quad is read as an inverted tag's quiet zone (data-area
-#: units, :data:`~ottag_db.printing.geometry.DEFAULT_QUIET_ZONE_RATIO`; ECC corrects a mismatch).
-INVERTED_QUIET = 0.25
+#: units, :data:`~ottag_db.core.types.QUIET_ZONE`; ECC corrects a mismatch).
+INVERTED_QUIET = QUIET_ZONE
 #: The outline template (:func:`align_outline`): the printed quiet zone all round
 #: (:data:`INVERTED_QUIET` wide) and a rim of the data area inside the points' inner margin
 #: (:data:`~ottag_db.core.placement.DEFAULT_INNER_MARGIN`, 0.10), where no triangle is printed;

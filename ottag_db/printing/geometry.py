@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ottag_db.core.geometry import as_point_batch, maximal_perturbations
 from ottag_db.core.placement import DEFAULT_INNER_MARGIN, apply_placements, tag_placements
-from ottag_db.core.types import POLARITIES, Polarity
+from ottag_db.core.types import POLARITIES, QUIET_ZONE, Polarity
 from ottag_db.errors import ExportError, UsageError
 
 __all__ = [
@@ -23,7 +23,7 @@ __all__ = [
 ]
 
 #: Default quiet zone width as a fraction of the tag size (data-area side), on each side.
-DEFAULT_QUIET_ZONE_RATIO = 0.25
+DEFAULT_QUIET_ZONE_RATIO = QUIET_ZONE
 
 
 def default_quiet_zone(tag_size: float) -> float:

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ottag_db.core.geometry import maximal_perturbation
-from ottag_db.core.types import POLARITIES, Polarity
+from ottag_db.core.types import POLARITIES, QUIET_ZONE, Polarity
 from ottag_db.errors import ExportError, UsageError
 from ottag_db.printing.camera import camera_matrix, pose_homography, project, random_pose
 
@@ -59,8 +59,6 @@ PLACEMENT: F64 = np.array([[0.8 / 255, 0.0, 0.1], [0.0, 0.8 / 255, 0.1]])
 #: Supersampling factor of the renderer: polygons are filled at this many times the frame
 #: resolution and reduced with area averaging (exact anti-aliasing up to 1/16 px).
 SUPERSAMPLING = 4
-#: Width of the quiet zone around the data area, in data-area units.
-QUIET_ZONE = 0.25
 #: Frontal point-to-line margin (px) the random scenes give every tag at least.
 MARGIN_PX = 4.5
 #: Smallest point-to-line margin (px) of a random scene's tag as seen in the image. A strong

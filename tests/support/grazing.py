@@ -30,12 +30,12 @@ def printed_tags(db_path: object) -> tuple[MemoryLookup, list[DrawableTag]]:
 
 
 def grazing_frame(
-    tags: list[DrawableTag], seed: int, tilt: float, polarity: Polarity = "normal"
+    tags: list[DrawableTag], seed: int, tilt: float, polarity: Polarity = "normal", background: int = 200
 ) -> tuple[DrawableTag, NDArray[np.uint8]]:
     """A 21 cm tag at 1.5 m (98 px frontal, f = 700 px) tilted ``tilt`` degrees (blur σ 0.5 px,
-    noise σ 2, JPEG 90); the tag is ``tags[seed % len(tags)]``."""
+    noise σ 2, JPEG 90) on a frame of grey ``background``; the tag is ``tags[seed % len(tags)]``."""
     tag, spec, rng = _grazing_spec(tags, seed, tilt, polarity)
-    return tag, sc.render_scene((480, 640), [spec], rng, blur=0.5, noise=2.0, jpeg=90).image
+    return tag, sc.render_scene((480, 640), [spec], rng, background=background, blur=0.5, noise=2.0, jpeg=90).image
 
 
 def grazing_corners(
