@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
+from ottag_db.decode.placement_check import UNIT_SQUARE
 from ottag_db.decode.types import Detection, DetectorParams, Quad
 
 __all__ = [
@@ -56,9 +57,8 @@ JOINED_QUIET_TOLERANCE = 0.3
 #: nearly edge-on blur, noise and JPEG leave specks in it: with at most 32 holes, the normal
 #: tags read on a dark frame at 86° fell from 34 to 26 of 60.
 JOINED_MAX_HOLES = 256
-_UNIT_SQUARE32 = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32)
 #: The printed quiet zone's outline in data-area units (corners in the unit square's order).
-_QUIET_OUTLINE = (_UNIT_SQUARE32.astype(np.float64) - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
+_QUIET_OUTLINE = (UNIT_SQUARE - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
 #: A foreshortened candidate that a later binarization outlines with a corner at least this far
 #: (px) from every corner of the earlier outline is read again (see :func:`seen_before`).
 OUTLINE_MOVED_PX = 1.5
@@ -253,7 +253,7 @@ def _quiet_zone_miss(inner: NDArray[Any], outer: NDArray[Any]) -> float:
     """How far (data-area units of ``inner``, largest coordinate error of a corner) the quad
     ``outer`` is from the printed quiet zone's outline around the quad ``inner``."""
     to_unit = cv2.getPerspectiveTransform(
-        clockwise(inner.reshape(4, 2).astype(np.float64)).astype(np.float32), _UNIT_SQUARE32
+        clockwise(inner.reshape(4, 2).astype(np.float64)).astype(np.float32), UNIT_SQUARE.astype(np.float32)
     )
     seen = cv2.perspectiveTransform(clockwise(outer.reshape(4, 2).astype(np.float64)).reshape(1, 4, 2), to_unit)[0]
     return min(float(np.abs(np.roll(seen, r, axis=0) - _QUIET_OUTLINE).max()) for r in range(4))
