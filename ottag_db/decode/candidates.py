@@ -47,8 +47,8 @@ THIN_QUAD_LONG_SIDE = 3.0
 #: The hull of a region's holes is a data area (:func:`_joined_holes`) only when the region's
 #: outline lies within this (data-area units) of where the printed quiet zone ends. On
 #: grazing frames (78–86°, 40 seeds, both polarities, frame grey 55 and 200) 44 of the 49
-#: hulls that were a data area came within 0.3 (most within 0.15), 34 of the 339 hulls of a
-#: tag's own triangles (none within 0.15). At 0.15 the normal tags read on a dark frame at
+#: hulls that were a data area came within 0.3 (most within 0.15), 34 of the 339 other hulls,
+#: mostly of a tag's own triangles (none within 0.15). At 0.15 the normal tags read on a dark frame at
 #: 84–87° (benchmarks/decode_polarity.py --background 55) were 51, 44, 25, 15 of 60; at 0.3
 #: 55, 52, 34, 28; without the test 57, 52, 41, 31, no tag read wrong in any.
 JOINED_QUIET_TOLERANCE = 0.3
