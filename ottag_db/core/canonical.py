@@ -245,7 +245,7 @@ def lambda_orderings(lam: NDArray[np.integer]) -> list[tuple[tuple[int, ...], ND
     pos = (n - 1) - lam[hull]
     pos[np.arange(len(hull)), hull] = 0
     perms = np.zeros((len(hull), n), dtype=np.int64)
-    np.put_along_axis(perms, pos, np.broadcast_to(np.arange(n), pos.shape), axis=1)
+    perms[np.arange(len(hull))[:, None], pos] = np.arange(n)  # put_along_axis, without its overhead
     mats = lam[perms[:, :, None], perms[:, None, :]].astype(np.int8)
     keys = [m.tobytes() for m in mats]  # entries 0 … n−2: byte order is lexicographic order
     order = sorted(range(len(hull)), key=keys.__getitem__)

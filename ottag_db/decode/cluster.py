@@ -109,8 +109,8 @@ def cluster_hypotheses(
     lid = table.lines
     nl: list[list[float]] = tris.normal.tolist()
     ol: list[float] = tris.offset.tolist()
-    dv = v[:, None, :] - v[None, :, :]
-    d = np.sqrt((dv * dv).sum(axis=2))
+    dx, dy = v[:, None, 0] - v[None, :, 0], v[:, None, 1] - v[None, :, 1]  # by coordinate: faster
+    d = np.sqrt(dx * dx + dy * dy)
     ii, jj = np.nonzero((d < cap) & table.other)
     order = np.argsort(d[ii, jj], kind="stable")
     sure_pairs: list[tuple[int, int]] = []

@@ -109,8 +109,10 @@ def otsu(hist: NDArray[Any]) -> OtsuSplit | None:
     # between-class variance w0·w1·(m0 − m1)² = (total·s0 − s_all·w0)² / (w0·w1)
     num = total * s0 - s_all * w0
     den = w0 * (total - w0)
-    between = np.divide(num * num, den, out=np.full(256, -1.0), where=den > 0)
-    t = int(np.argmax(between))
+    # an empty class (den = 0) scores 0: below every split with two classes, whose classes
+    # then have different means (num ≠ 0); with none, the split is refused below either way
+    between = num * num / np.where(den > 0, den, np.inf)
+    t = int(between.argmax())
     w0t = float(w0[t])
     if w0t <= 0 or total - w0t <= 0:
         return None

@@ -134,7 +134,11 @@ def lines_from_moments(mx: _F64, my: _F64, sxx: _F64, sxy: _F64, syy: _F64) -> t
         Unit normals ``(S, 2)`` and offsets ``(S,)`` (n·x = c).
     """
     theta = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # direction of largest spread
-    normal = np.stack([-np.sin(theta), np.cos(theta)], axis=1)
+    # filled by column: np.stack costs more than the trigonometry for a few dozen lines
+    normal = np.empty((len(theta), 2))
+    np.sin(theta, out=normal[:, 0])
+    np.negative(normal[:, 0], out=normal[:, 0])
+    np.cos(theta, out=normal[:, 1])
     offset = normal[:, 0] * mx + normal[:, 1] * my
     return normal, offset
 
@@ -155,9 +159,11 @@ def lines_through(poly: _F64) -> tuple[_F64, _F64]:
     a = poly
     b = poly[_next_index(len(poly), len(poly))]
     d = b - a
-    normal = np.stack([-d[:, 1], d[:, 0]], axis=1)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    return normal, (normal * a).sum(axis=1)
+    normal = np.empty_like(d)  # filled by column (np.stack and np.linalg.norm cost more here)
+    np.negative(d[:, 1], out=normal[:, 0])
+    normal[:, 1] = d[:, 0]
+    normal /= np.sqrt(normal[:, 0] * normal[:, 0] + normal[:, 1] * normal[:, 1])[:, None]
+    return normal, normal[:, 0] * a[:, 0] + normal[:, 1] * a[:, 1]
 
 
 def intersect(n1: _F64, c1: _F64, n2: _F64, c2: _F64) -> _F64:
@@ -245,10 +251,11 @@ def refine_lines(
         b = np.where(finite[:, None], b, 0.0)
     sd = b - a
     # sample positions along each side (the vertices lie on their lines: no projection needed)
-    base = a[:, None, :] + _REFINE_FR[None, :, None] * sd[:, None, :]  # (S, M, 2)
+    # (S, M) per coordinate: numpy broadcasts over a last axis of length 2 three times slower
+    base = [a[:, c, None] + _REFINE_FR[None, :] * sd[:, c, None] for c in (0, 1)]
     # distance of every triangle sample to every other triangle side segment, by coordinate
     # (plain broadcasts: einsum's set-up costs more than these few thousand products)
-    bx, by = base[:st, :, 0, None], base[:st, :, 1, None]  # (St, M, 1)
+    bx, by = base[0][:st, :, None], base[1][:st, :, None]  # (St, M, 1)
     ax, ay = a[:st, 0], a[:st, 1]
     dx, dy = sd[:st, 0], sd[:st, 1]
     ln2 = np.maximum(dx * dx + dy * dy, 1e-12)
@@ -266,10 +273,11 @@ def refine_lines(
     wide[:st] = width >= np.minimum(3.0, 0.6 * width.max(axis=1))[:, None]
     offs = _REFINE_OFFS
     n_o = len(offs)
-    # sample grid (S, M, O, 2), built in float32 for remap
+    # sample grid (S, M, O, 2), built in float32 for remap, one coordinate at a time
     samp32 = np.empty((s, m_fr, n_o, 2), dtype=np.float32)
-    step_xy = offs[:, None] * normal[:, None, :]  # (S, O, 2)
-    np.add(base[:, :, None, :], step_xy[:, None, :, :], out=samp32, casting="same_kind")
+    for c in (0, 1):
+        shift = offs[None, :] * normal[:, c, None]  # (S, O)
+        np.add(base[c][:, :, None], shift[:, None, :], out=samp32[..., c], casting="same_kind")
     # One row of samples (remap takes under 32,767 per row): OpenCV splits a remap by rows
     # among its threads, and waking them for a few thousand samples cost more than the
     # sampling. With 2 threads 70 µs per frame as (S·M, O) rows against 20 µs as one row
@@ -288,8 +296,8 @@ def refine_lines(
     o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
     valid = (change.any(axis=1) & wide.ravel()).reshape(s, -1)
     o2 = o.reshape(s, -1)
-    px = base[..., 0] + o2 * normal[:, 0, None]
-    py = base[..., 1] + o2 * normal[:, 1, None]
+    px = base[0] + o2 * normal[:, 0, None]
+    py = base[1] + o2 * normal[:, 1, None]
     w = valid.astype(np.float64)
     cnt = w.sum(axis=1)
     good = (cnt >= 3) & finite

@@ -78,10 +78,11 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
     """
     h, w = gray.shape
     q = quad.corners
-    x0 = max(math.floor(q[:, 0].min()) - 4, 0)
-    y0 = max(math.floor(q[:, 1].min()) - 4, 0)
-    x1 = min(math.ceil(q[:, 0].max()) + 5, w)
-    y1 = min(math.ceil(q[:, 1].max()) + 5, h)
+    (ax, ay), (bx, by), (cx, cy), (dx, dy) = q.tolist()  # 4 corners: plain Python is cheaper
+    x0 = max(math.floor(min(ax, bx, cx, dx)) - 4, 0)
+    y0 = max(math.floor(min(ay, by, cy, dy)) - 4, 0)
+    x1 = min(math.ceil(max(ax, bx, cx, dx)) + 5, w)
+    y1 = min(math.ceil(max(ay, by, cy, dy)) + 5, h)
     roi = gray[y0:y1, x0:x1]
     if quad.polarity == "inverted":
         roi = 255 - roi

@@ -101,18 +101,21 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
         return None
     flat = flat_i.astype(np.float64)
     hp = flat[hull]
-    dd = ((hp[:, None, :] - hp[None, :, :]) ** 2).sum(axis=2)
-    ia, ib = divmod(int(np.argmax(dd)), len(hp))
+    # by coordinate: numpy broadcasts over a last axis of length 2 several times slower
+    hx, hy = hp[:, 0], hp[:, 1]
+    dx, dy = hx[:, None] - hx[None, :], hy[:, None] - hy[None, :]
+    dd = dx * dx + dy * dy
+    ia, ib = divmod(int(dd.argmax()), len(hp))
     hpl: list[list[float]] = hp.tolist()
-    hrange = range(len(hpl))
 
     def far_from(p0: list[float], p1: list[float]) -> list[float]:
         """Twice the area of the triangle of each hull point with ``p0`` and ``p1``."""
-        ex, ey = p1[0] - p0[0], p1[1] - p0[1]
-        return [abs(ex * (y - p0[1]) - ey * (x - p0[0])) for x, y in hpl]
+        (x0, y0), (x1, y1) = p0, p1
+        ex, ey = x1 - x0, y1 - y0
+        return [abs(ex * (y - y0) - ey * (x - x0)) for x, y in hpl]
 
     vals = far_from(hpl[ia], hpl[ib])
-    ic = max(hrange, key=vals.__getitem__)  # the first largest, as np.argmax
+    ic = vals.index(max(vals))  # the first largest, as np.argmax
     sel = [int(ia), int(ib), ic]
     # grow to the largest-area hull triangle (a blunt short side can fool the farthest pair)
     for it in range(3):
@@ -121,7 +124,7 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
             if r == 2 and it == 0 and not changed:
                 break  # corner 2 is already the farthest from the unchanged side 0–1
             vals = far_from(hpl[sel[(r + 1) % 3]], hpl[sel[(r + 2) % 3]])
-            best = max(hrange, key=vals.__getitem__)
+            best = vals.index(max(vals))
             if best != sel[r] and vals[best] > vals[sel[r]] + 1e-9:
                 sel[r] = best
                 changed = True
@@ -140,9 +143,15 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
     chains: list[_F64] = []
     far = 0
     i0, i1, i2 = idx
-    for seg in (flat[i0 : i1 + 1], flat[i1 : i2 + 1], np.concatenate([flat[i2:], flat[: i0 + 1]])):
+    # the contour with a column of ones: one product gives a chain's sums and second moments
+    ones = np.empty((n, 3))
+    ones[:, :2] = flat
+    ones[:, 2] = 1.0
+    ends = ((t0x, t0y, t1x, t1y), (t1x, t1y, t2x, t2y), (t2x, t2y, t0x, t0y))
+    segs = (ones[i0 : i1 + 1], ones[i1 : i2 + 1], np.concatenate([ones[i2:], ones[: i0 + 1]]))
+    for seg3, (sx, sy, qx, qy) in zip(segs, ends, strict=True):
+        seg = seg3[:, :2]
         m = len(seg)
-        (sx, sy), (qx, qy) = seg[0].tolist(), seg[-1].tolist()
         ln = math.hypot(qx - sx, qy - sy)
         if ln < 1:
             return None
@@ -151,17 +160,17 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
             chains.append(seg[[0, -1]])
             continue
         trim = max(1, int(0.15 * m))
-        core = seg[trim : m - trim]
+        core3 = seg3[trim : m - trim]
         # distance of the chain (without its ends) to the line fitted to its core
         t10 = max(1, int(0.1 * m))
         # PCA line of the core from raw moments (pixel coordinates: no loss of precision)
-        (sx_, sy_), ((gxx, gxy), (_, gyy)) = core.sum(axis=0).tolist(), (core.T @ core).tolist()
-        cx, cy = sx_ / len(core), sy_ / len(core)
+        (gxx, gxy, sx_), (_, gyy, sy_), _ = (core3.T @ core3).tolist()
+        cx, cy = sx_ / len(core3), sy_ / len(core3)
         theta = 0.5 * math.atan2(2 * (gxy - sx_ * cy), (gxx - sx_ * cx) - (gyy - sy_ * cy))
         nx, ny = -math.sin(theta), math.cos(theta)
         dist = np.abs(seg[t10 : m - t10] @ np.array((nx, ny)) - (nx * cx + ny * cy))
         far += int(np.count_nonzero(dist > 1.0 + 0.015 * ln))
-        chains.append(core)
+        chains.append(core3[:, :2])
     if far > max(2, 0.05 * n):
         return None
     return TriangleFit(chains, tri, flat)
@@ -247,14 +256,18 @@ def bad_triangles(verts: _F64, quad: _F64, side: float) -> Rejection | None:
     sb = verts[:, _NEXT3].reshape(-1, 2)
     sd = sb - sa
     ln = np.maximum(np.hypot(sd[:, 0], sd[:, 1]), 1e-9)
-    unit = sd / ln[:, None]
-    nrm = np.stack([-unit[:, 1], unit[:, 0]], axis=1)
+    # by coordinate (numpy broadcasts over a last axis of length 2 several times slower):
+    # unit direction (ux, uy) and normal (−uy, ux) of side i as columns
+    ux, uy = (sd[:, 0] / ln)[:, None], (sd[:, 1] / ln)[:, None]
+    nx = -uy
     # side j against side i: both ends of j within ``near`` of side i's line, and their
     # projections overlapping side i over a third of the shorter side
-    off_a = np.abs(((sa[None, :, :] - sa[:, None, :]) * nrm[:, None, :]).sum(axis=2))
-    off_b = np.abs(((sb[None, :, :] - sa[:, None, :]) * nrm[:, None, :]).sum(axis=2))
-    pa = ((sa[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
-    pb = ((sb[None, :, :] - sa[:, None, :]) * unit[:, None, :]).sum(axis=2)
+    rax, ray = sa[None, :, 0] - sa[:, None, 0], sa[None, :, 1] - sa[:, None, 1]  # (S, S): j − i
+    rbx, rby = sb[None, :, 0] - sa[:, None, 0], sb[None, :, 1] - sa[:, None, 1]
+    off_a = np.abs(rax * nx + ray * ux)
+    off_b = np.abs(rbx * nx + rby * ux)
+    pa = rax * ux + ray * uy
+    pb = rbx * ux + rby * uy
     overlap = np.minimum(np.maximum(pa, pb), ln[:, None]) - np.maximum(np.minimum(pa, pb), 0.0)
     s = len(sa)
     own = _SAME_TRIANGLE[s] if s < len(_SAME_TRIANGLE) else _same_triangle_mask(s)
