@@ -168,6 +168,11 @@ def rasterize(polygons: _F64, lo: float, hi: float, size: int, supersampling: in
     return out
 
 
+#: Supersampled pixel coordinates beyond this are no view of a tag (OpenCV's fixed-point
+#: polygon coordinates, 16 × these, stay far inside int32).
+_MAX_DRAWN_PX = float(1 << 24)
+
+
 def draw_through(
     triangles: _F64, quiet: float, to_pixels: _F64, shape: tuple[int, int], supersampling: int = 4
 ) -> _F32:
@@ -192,14 +197,23 @@ def draw_through(
     Returns
     -------
     numpy.ndarray
-        ``(H, W)`` float32 in [0, 1], the covered fraction of each pixel.
+        ``(H, W)`` float32 in [0, 1], the covered fraction of each pixel; all 0 when the
+        homography sends part of the drawing to or past the line at infinity (no view of it).
     """
     h, w = shape
     q = quiet
     outer = np.array([[-q, -q], [1 + q, -q], [1 + q, 1 + q], [-q, 1 + q]])
     flat = np.concatenate([outer, UNIT_SQUARE, triangles.reshape(-1, 2)])
+    blank: _F32 = np.zeros((h, w), dtype=np.float32)
+    # An alignment gone astray can put the quiet zone's far edge beyond the horizon: its corners
+    # then have no image (w ≤ 0) and the fixed-point cast below would draw garbage.
+    depth = flat @ to_pixels[2, :2] + to_pixels[2, 2]
+    if not ((depth > 0).all() or (depth < 0).all()):
+        return blank
     # a pixel's centre p covers [p − 0.5, p + 0.5): supersampled pixel j is centred at (j + 0.5) / s − 0.5
     px = (apply_homography(to_pixels, flat) + 0.5) * supersampling - 0.5
+    if not (np.abs(px) < _MAX_DRAWN_PX).all():  # also NaN: nearly at the horizon
+        return blank
     fixed = np.round(px * 16).astype(np.int32).reshape(-1, 1, 2)
     canvas = np.zeros((h * supersampling, w * supersampling), dtype=np.uint8)
     cv2.fillPoly(canvas, [fixed[:4]], 255, cv2.LINE_8, 4)

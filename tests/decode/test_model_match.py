@@ -59,6 +59,23 @@ def test_draw_through_draws_the_print_as_a_camera_sees_it() -> None:
     assert 0.3 < thin[12, 10:50].mean() < 0.7 and np.ptp(thin[12, 12:48]) > 0.5
 
 
+@pytest.mark.filterwarnings("error")
+def test_draw_through_draws_nothing_of_a_tag_cut_by_the_horizon() -> None:
+    """An alignment gone astray may send the quiet zone's far edge to or past the line at
+    infinity: no view of the tag (blank), and no garbage drawn from non-finite coordinates."""
+    tri = np.array([[[0.1, 0.1], [0.9, 0.1], [0.1, 0.9]]])
+    # w = 1 − y / 1.1: the quiet zone's far corners (y = 1.25) lie beyond the horizon y = 1.1
+    past = np.array([[40.0, 0, 9.5], [0, 40.0, 9.5], [0, -1 / 1.1, 1.0]])
+    # w = 1 − y / 1.25: exactly on it (a division by zero)
+    on = np.array([[40.0, 0, 9.5], [0, 40.0, 9.5], [0, -0.8, 1.0]])
+    for to_pixels in (past, on):
+        img = draw_through(tri, 0.25, to_pixels, (70, 80))
+        assert img.shape == (70, 80) and img.dtype == np.float32 and not img.any()
+    # the same map with the horizon beyond the quiet zone draws the tag
+    near = np.array([[40.0, 0, 9.5], [0, 40.0, 9.5], [0, -0.1, 1.0]])
+    assert draw_through(tri, 0.25, near, (70, 80)).any()
+
+
 def test_the_bank_holds_every_printed_tag_normalized(printed) -> None:
     lookup, _ = printed
     bank = template_bank(lookup, 100_000)
