@@ -21,18 +21,14 @@ from ottag_db.decode.cluster import cluster_hypotheses
 from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.refine import refine
-from ottag_db.decode.segmentation import NO_DECOMPOSITION, decompose, segment, then_alternatives
+from ottag_db.decode.segmentation import MAX_TRIANGLES, NO_DECOMPOSITION, decompose, segment, then_alternatives
 from ottag_db.decode.splitting import FitMemo, SearchBudget
 from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
 
-__all__ = ["MAX_TRIANGLES", "FrameMap", "points_fit", "read_area", "scaled_params"]
+__all__ = ["FrameMap", "points_fit", "read_area", "scaled_params"]
 
 _F64 = NDArray[np.float64]
-
-#: More triangles than this cannot hold a tag's points (each triangle has 3 of them, two
-#: triangles share at most one): the component soup of a non-tag.
-MAX_TRIANGLES = 12
 
 
 class FrameMap(Protocol):
@@ -111,7 +107,7 @@ def read_area(
         decomps = decompose(area.fg, side, params, alternatives, memo, axes)
     clock.lap("triangles")
     if isinstance(decomps, Rejection):
-        detail = NO_DECOMPOSITION if decomps.reason == "non_triangle" else ""
+        detail = decomps.detail or (NO_DECOMPOSITION if decomps.reason == "non_triangle" else "")
         return Rejection(decomps.reason, detail, decomposed=False, not_printed=print_required), None
     if not decomps or decomps[0].count == 0:
         return Rejection("no_triangles", not_printed=print_required), None

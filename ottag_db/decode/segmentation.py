@@ -19,6 +19,7 @@ from ottag_db.decode.types import DataArea, Decomposition, DetectorParams, Quad,
 
 __all__ = [
     "MAX_DECOMPOSITIONS",
+    "MAX_TRIANGLES",
     "NO_DECOMPOSITION",
     "RECTILINEAR_MAX_DEG",
     "RECTILINEAR_MIN_EDGE_PX",
@@ -35,6 +36,9 @@ _F64 = NDArray[np.float64]
 
 #: At most this many alternative decompositions of one data area are read.
 MAX_DECOMPOSITIONS = 10
+#: More triangles than this cannot hold a tag's points (each triangle has 3 of them, two
+#: triangles share at most one): the component soup of a non-tag.
+MAX_TRIANGLES = 12
 #: Detail of the rejection when no decomposition was found at all.
 NO_DECOMPOSITION = "a component is not a union of triangles"
 #: A component whose long outline edges all lie within this angle (degrees, in data-area
@@ -147,7 +151,8 @@ def decompose(
     list of Decomposition or Rejection
         At most :data:`MAX_DECOMPOSITIONS`, most plausible first (one empty decomposition
         when the mask holds no component); ``"non_triangle"`` when a component is too large,
-        a filled square, or not a union of triangles.
+        a filled square, or not a union of triangles, or when there are more components than
+        :data:`MAX_TRIANGLES`.
     """
     contours, hier = cv2.findContours(fg, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
@@ -183,6 +188,11 @@ def decompose(
             if len(poly) == 4 and cv2.isContourConvex(poly):
                 return Rejection("non_triangle")
         components.append(i)
+    # Every decomposition has at least one triangle per component: a data area of more
+    # components than a tag has triangles is refused before any is fitted (on the patterns of
+    # benchmarks/decode_clutter.py such areas, mostly text, took 7 of the 22 ms per frame).
+    if len(components) > MAX_TRIANGLES:
+        return Rejection("non_triangle", f"{len(components)} components")
     for i in components:
         pts = contours[i].reshape(-1, 2)
         # A ring of triangles (each sharing vertices with the next) encloses a hole: bridge

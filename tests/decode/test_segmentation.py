@@ -70,6 +70,23 @@ def test_decompose_two_triangles_and_a_square() -> None:
     assert NO_DECOMPOSITION
 
 
+def test_more_components_than_a_tag_has_triangles_are_refused_before_any_fit() -> None:
+    """Each component holds a triangle at least: 13 (text, a checkerboard) cannot be a tag."""
+    fg = np.zeros((200, 200), np.uint8)
+    cells = [(20 + 40 * (i % 4), 20 + 40 * (i // 4)) for i in range(13)]
+    # 12 triangles and a square: the square alone would cost an alternative search
+    for x, y in cells[:12]:
+        cv2.fillPoly(fg, [np.array([[x, y], [x + 30, y + 4], [x + 8, y + 28]], np.int32)], 255)
+    twelve = decompose(fg, 200.0, DetectorParams(), None)
+    assert isinstance(twelve, list) and twelve[0].count == 12  # as many as a tag may have: read on
+    x, y = cells[12]
+    fg[y : y + 25, x : x + 25] = 255
+    memo = FitMemo()
+    rej = decompose(fg, 200.0, DetectorParams(), FRAME_SEARCH, memo)
+    assert isinstance(rej, Rejection) and rej.reason == "non_triangle" and rej.detail == "13 components"
+    assert not memo.fits  # refused before a single triangle fit
+
+
 def test_then_alternatives_is_lazy_and_skips_repeats() -> None:
     a = Decomposition((np.array([[1.0, 2.0], [3.0, 4.0]]),))
     b = Decomposition((np.array([[5.0, 6.0], [7.0, 8.0]]),))
