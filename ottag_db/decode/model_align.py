@@ -214,6 +214,11 @@ def ecc(
     to_frame /= to_frame[2, 2]
     if not np.isfinite(to_frame).all() or not math.isfinite(rho):
         return None
+    # the data area must stay in front of the camera (depth w > 0 at its corners, 1 at the
+    # first): ECC can wander into a map that sends part of it across the horizon, no view of a
+    # tag (a rival with ρ 0.94 that way was once drawn from garbage polygons)
+    if not (UNIT_SQUARE @ to_frame[2, :2] + to_frame[2, 2] > 0).all():
+        return None
     return to_frame, warp64
 
 

@@ -171,6 +171,9 @@ def rasterize(polygons: _F64, lo: float, hi: float, size: int, supersampling: in
 #: Supersampled pixel coordinates beyond this are no view of a tag (OpenCV's fixed-point
 #: polygon coordinates, 16 × these, stay far inside int32).
 _MAX_DRAWN_PX = float(1 << 24)
+#: The quiet zone is drawn only where the homography's depth is at least this fraction of the
+#: data area's least (see :func:`draw_through`).
+_MIN_QUIET_DEPTH = 0.05
 
 
 def draw_through(
@@ -197,32 +200,55 @@ def draw_through(
     Returns
     -------
     numpy.ndarray
-        ``(H, W)`` float32 in [0, 1], the covered fraction of each pixel; all 0 when the
-        homography sends part of the drawing to or past the line at infinity (no view of it).
+        ``(H, W)`` float32 in [0, 1], the covered fraction of each pixel. Seen nearly edge-on the
+        quiet zone's far edge may lie at or beyond the horizon of the homography: it is drawn up
+        to where its depth falls to ``_MIN_QUIET_DEPTH`` of the data area's. All 0 when the data
+        area itself reaches the horizon (no view of the tag).
     """
     h, w = shape
-    q = quiet
-    outer = np.array([[-q, -q], [1 + q, -q], [1 + q, 1 + q], [-q, 1 + q]])
-    flat = np.concatenate([outer, UNIT_SQUARE, triangles.reshape(-1, 2)])
     blank: _F32 = np.zeros((h, w), dtype=np.float32)
-    # An alignment gone astray can put the quiet zone's far edge beyond the horizon: its corners
-    # then have no image (w ≤ 0) and the fixed-point cast below would draw garbage.
-    depth = flat @ to_pixels[2, :2] + to_pixels[2, 2]
-    if not ((depth > 0).all() or (depth < 0).all()):
+    # depth (the homogeneous w) of the data area's corners, positive in front of the camera;
+    # linear in the tag plane, so every triangle point lies between these
+    sign = 1.0 if to_pixels[2, 2] >= 0 else -1.0
+    row = sign * to_pixels[2]
+    depth = UNIT_SQUARE @ row[:2] + row[2]
+    if not (depth > 0).all():
         return blank
+    q = quiet
+    outer = _clip_to_depth(
+        np.array([[-q, -q], [1 + q, -q], [1 + q, 1 + q], [-q, 1 + q]]), row, _MIN_QUIET_DEPTH * float(depth.min())
+    )
+    flat = np.concatenate([outer, UNIT_SQUARE, triangles.reshape(-1, 2)])
     # a pixel's centre p covers [p − 0.5, p + 0.5): supersampled pixel j is centred at (j + 0.5) / s − 0.5
     px = (apply_homography(to_pixels, flat) + 0.5) * supersampling - 0.5
-    if not (np.abs(px) < _MAX_DRAWN_PX).all():  # also NaN: nearly at the horizon
+    if not (np.abs(px) < _MAX_DRAWN_PX).all():  # also NaN
         return blank
     fixed = np.round(px * 16).astype(np.int32).reshape(-1, 1, 2)
+    m = len(outer)
     canvas = np.zeros((h * supersampling, w * supersampling), dtype=np.uint8)
-    cv2.fillPoly(canvas, [fixed[:4]], 255, cv2.LINE_8, 4)
-    cv2.fillPoly(canvas, [fixed[4:8]], 0, cv2.LINE_8, 4)
+    cv2.fillPoly(canvas, [fixed[:m]], 255, cv2.LINE_8, 4)
+    cv2.fillPoly(canvas, [fixed[m : m + 4]], 0, cv2.LINE_8, 4)
     if len(triangles):
-        cv2.fillPoly(canvas, list(fixed[8:].reshape(-1, 3, 1, 2)), 255, cv2.LINE_8, 4)
+        cv2.fillPoly(canvas, list(fixed[m + 4 :].reshape(-1, 3, 1, 2)), 255, cv2.LINE_8, 4)
     small = cv2.resize(canvas, (w, h), interpolation=cv2.INTER_AREA)
     out: _F32 = np.asarray(small, dtype=np.float32) / np.float32(255.0)
     return out
+
+
+def _clip_to_depth(poly: _F64, row: _F64, min_depth: float) -> _F64:
+    """The part of a convex polygon (tag-plane units) where ``row · (x, y, 1) ≥ min_depth``
+    (Sutherland–Hodgman against one line; the polygon itself when it lies there whole)."""
+    d = poly @ row[:2] + row[2] - min_depth
+    if (d >= 0).all():
+        return poly
+    out: list[_F64] = []
+    for i in range(len(poly)):
+        j = (i + 1) % len(poly)
+        if d[i] >= 0:
+            out.append(poly[i])
+        if (d[i] >= 0) != (d[j] >= 0):
+            out.append(poly[i] + (poly[j] - poly[i]) * (d[i] / (d[i] - d[j])))
+    return np.array(out)
 
 
 def normalized_rows(rows: NDArray[np.floating]) -> _F32:

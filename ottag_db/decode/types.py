@@ -283,8 +283,10 @@ class DetectorParams:
       tag's contrast); a rival that misses it is explained away too. Correlation and misfit
       are judged inside the data area, where a dark data area nearly edge-on can also pass for
       the inside of an inverted tag's quiet zone. Measured on the same 480 frames: the correct
-      tag, once aligned, 0.05 (median) and at most 0.20; an inverted reading of a normal tag
-      at 84° that fit within the other limits (ρ 0.94), 0.51;
+      tag, once aligned, 0.05 (median) and at most 0.20. (The inverted reading of a normal tag
+      at 84° that once fit within the other limits, ρ 0.94 and 0.51 here, came from an ECC
+      alignment that put part of its data area beyond the horizon, no view at all, now refused
+      by the alignment itself);
     - ``model_misfit_lead``: a rival's misfit explains it away only when it also exceeds the
       winner's by this: on the tilt sweep at 86° a look-alike read an inverted tag's thin
       quad with ρ 0.93 and a misfit of 0.275, its rivals (ρ 0.91 and 0.88) explained away by
