@@ -143,12 +143,13 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
     chains: list[_F64] = []
     far = 0
     i0, i1, i2 = idx
-    # the contour with a column of ones: one product gives a chain's sums and second moments
-    ones = np.empty((n, 3))
-    ones[:, :2] = flat
-    ones[:, 2] = 1.0
+    # the contour in homogeneous coordinates (a column of ones): one product gives a chain's
+    # sums and second moments
+    homog = np.empty((n, 3))
+    homog[:, :2] = flat
+    homog[:, 2] = 1.0
     ends = ((t0x, t0y, t1x, t1y), (t1x, t1y, t2x, t2y), (t2x, t2y, t0x, t0y))
-    segs = (ones[i0 : i1 + 1], ones[i1 : i2 + 1], np.concatenate([ones[i2:], ones[: i0 + 1]]))
+    segs = (homog[i0 : i1 + 1], homog[i1 : i2 + 1], np.concatenate([homog[i2:], homog[: i0 + 1]]))
     for seg3, (sx, sy, qx, qy) in zip(segs, ends, strict=True):
         seg = seg3[:, :2]
         m = len(seg)
