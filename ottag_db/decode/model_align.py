@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_area_depths, square_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
 
 __all__ = [
@@ -217,7 +217,7 @@ def ecc(
     # the data area must stay in front of the camera (depth w > 0 at its corners, 1 at the
     # first): ECC can wander into a map that sends part of it across the horizon, no view of a
     # tag (a rival with ρ 0.94 that way was once drawn from garbage polygons)
-    if not (UNIT_SQUARE @ to_frame[2, :2] + to_frame[2, 2] > 0).all():
+    if not (data_area_depths(to_frame) > 0).all():
         return None
     return to_frame, warp64
 

@@ -25,6 +25,7 @@ __all__ = [
     "UNIT_SQUARE",
     "PlacementError",
     "apply_homography",
+    "data_area_depths",
     "placement_error",
     "square_homography",
 ]
@@ -41,6 +42,26 @@ def apply_homography(hmat: _F64, pts: _F64) -> _F64:
         return out
     with np.errstate(divide="ignore", invalid="ignore"):
         out = ph[:, :2] / w
+    return out
+
+
+def data_area_depths(hmat: _F64) -> _F64:
+    """The homogeneous depth ``w`` of the data area's corners (:data:`UNIT_SQUARE`) under a
+    homography from data-area units: a view of the data area has all four of one sign (its
+    points lie between them, ``w`` being linear in the plane); a sign change means the map
+    sends part of it across the horizon.
+
+    Parameters
+    ----------
+    hmat : numpy.ndarray
+        ``(3, 3)`` homography data-area units → pixels.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(4,)`` depths, in the order of :data:`UNIT_SQUARE` (the first is ``hmat[2, 2]``).
+    """
+    out: _F64 = UNIT_SQUARE @ hmat[2, :2] + hmat[2, 2]
     return out
 
 

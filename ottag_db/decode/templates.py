@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry, TagLookup
-from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_area_depths
 
 __all__ = [
     "MODEL_GRID",
@@ -207,13 +207,13 @@ def draw_through(
     """
     h, w = shape
     blank: _F32 = np.zeros((h, w), dtype=np.float32)
-    # depth (the homogeneous w) of the data area's corners, positive in front of the camera;
-    # linear in the tag plane, so every triangle point lies between these
+    # depths of the data area's corners, made positive in front of the camera (the triangles'
+    # points lie between them)
     sign = 1.0 if to_pixels[2, 2] >= 0 else -1.0
-    row = sign * to_pixels[2]
-    depth = UNIT_SQUARE @ row[:2] + row[2]
+    depth = sign * data_area_depths(to_pixels)
     if not (depth > 0).all():
         return blank
+    row = sign * to_pixels[2]
     q = quiet
     outer = _clip_to_depth(
         np.array([[-q, -q], [1 + q, -q], [1 + q, 1 + q], [-q, 1 + q]]), row, _MIN_QUIET_DEPTH * float(depth.min())

@@ -10,7 +10,12 @@ import pytest
 from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.candidates import squeeze
-from ottag_db.decode.placement_check import apply_homography, placement_error, square_homography
+from ottag_db.decode.placement_check import (
+    apply_homography,
+    data_area_depths,
+    placement_error,
+    square_homography,
+)
 from ottag_db.decode.types import Detection, Quad, Rejection
 from ottag_db.decode.verify import line_system, verify
 from ottag_db.printing import scenes as sc
@@ -137,3 +142,13 @@ def test_rendered_oblique_tag_reads_only_as_printed(six_point) -> None:
     entries = [dataclasses.replace(e, placements=()) for e in lookup]
     loose = Detector(MemoryLookup(entries))
     assert any(d.lambda_text == tag.lambda_text for d in loose.detect(_oblique(moved, 0)))
+
+
+def test_data_area_depths_tell_a_view_from_a_map_across_the_horizon() -> None:
+    """w of the four corners: one sign for a view; the horizon y = 0.5 splits the data area."""
+    view = np.array([[40.0, 0, 9.5], [0, 40.0, 9.5], [0, -0.5, 1.0]])  # horizon at y = 2
+    np.testing.assert_allclose(data_area_depths(view), [1.0, 1.0, 0.5, 0.5])
+    assert (data_area_depths(-view) < 0).all()  # the same view, the other sign of scale
+    across = np.array([[40.0, 0, 9.5], [0, 40.0, 9.5], [0, -2.0, 1.0]])
+    depth = data_area_depths(across)
+    assert depth.min() < 0 < depth.max()
