@@ -5,7 +5,8 @@ Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.typ
     image        to_gray                          image → grey
     candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads,
                                                   then holes of the bright mask; seen_before: a
-                                                  foreshortened one outlined anew)
+                                                  foreshortened one outlined anew is read again,
+                                                  its first decomposition and by model)
     segmentation segment / decompose              Quad → DataArea → [Decomposition]
     triangles    (triangle fits and splits, inside decompose)
     refine       refine                           Decomposition → TriangleLines (+ quad corners)
@@ -31,6 +32,7 @@ from ottag_db.decode.candidates import (
     Binarization,
     around_detection,
     find_quads,
+    outlined_before,
     same_quad,
     same_tag,
     searches_at_half_resolution,
@@ -102,6 +104,9 @@ class Detector:
     its near-collinear triples reversed, each candidate the lookup holds verified, accepted
     only when exactly one verifies, ahead of every other by ``soft_min_fit_gap`` (and, on a
     data area under ``print_check_side_px``, only when the reading by model reads that tag too).
+    A foreshortened data area that a later binarization outlines anew is read again with its
+    first decomposition and by model, without the alternatives and the upsampled and rectified
+    views (:func:`~ottag_db.decode.candidates.outlined_before`).
 
     The detector holds only immutable settings and the lookup: :meth:`detect` keeps no state
     between calls and may run on several threads at once (the lookup must allow concurrent
@@ -206,19 +211,23 @@ class Detector:
             if edge_on and detections:
                 break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
             quads = [q for q in find_quads(gray, kind, p) if not seen_before(q, seen, p.rectify_max_ratio)]
+            # a foreshortened data area outlined anew (kept by seen_before) is read by model only,
+            # where its new corners can rank the tag seen first (see outlined_before)
+            outlined_again = [outlined_before(q, seen) for q in quads]
             seen.extend(quads)
             clock.lap("candidates")
             by_model: list[tuple[Quad, Rejection]] = []  # read by model after the pass
-            for quad in sorted(quads, key=lambda q: q.area):
+            for quad, again in sorted(zip(quads, outlined_again, strict=True), key=lambda c: c[0].area):
                 skip = around_detection(quad, detections)
                 clock.lap("candidates")
                 if skip:
                     continue
-                result = read_quad(gray, quad, self._catalogue, FRAME_SEARCH, clock)
-                if isinstance(result, Rejection) and result.reason in _RETRY_UPSAMPLED and result.decomposed:
-                    result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
-                if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
-                    result = read_rectified(gray, quad, result, self._catalogue, clock)
+                result = read_quad(gray, quad, self._catalogue, None if again else FRAME_SEARCH, clock)
+                if isinstance(result, Rejection) and not again:
+                    if result.reason in _RETRY_UPSAMPLED and result.decomposed:
+                        result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
+                    if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
+                        result = read_rectified(gray, quad, result, self._catalogue, clock)
                 if isinstance(result, Detection) and self._bank:
                     result = confirm_by_model(gray, quad, result, self._bank, p, clock)
                     if isinstance(result, Rejection):

@@ -16,6 +16,7 @@ from ottag_db.decode.candidates import (
     around_detection,
     clockwise,
     find_quads,
+    outlined_before,
     same_quad,
     same_tag,
     seen_before,
@@ -89,6 +90,8 @@ def test_a_thin_data_area_outlined_anew_by_a_later_binarization_is_read_again() 
     grown = Quad("normal", square.corners + np.array([[0, 0], [0, 0], [0, 2], [0, 2.0]]), 10100.0)
     assert seen_before(grown, [square], r)
     assert seen_before(moved, [thin], 0.0)  # no candidate is foreshortened enough: seen
+    # read again, but as an outline of a data area read before (by model only)
+    assert outlined_before(moved, [square, thin]) and not outlined_before(thin, [square])
 
 
 def test_readings_must_show_the_print_at_oblique_views_and_on_small_data_areas() -> None:
