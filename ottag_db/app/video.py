@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from ottag_db.errors import DecodeError, UsageError
 
 __all__ = [
+    "IMAGE_SUFFIXES",
     "VIDEO_SUFFIXES",
     "WRITER_SUFFIXES",
     "Frame",
@@ -33,6 +34,14 @@ __all__ = [
 #: File name endings taken for videos in messages and by ``--draw`` (decoding decides by content).
 VIDEO_SUFFIXES = frozenset(
     {".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mpg", ".mpeg", ".wmv", ".flv", ".ts", ".mts", ".3gp", ".ogv"}
+)
+
+#: File name endings of the image formats OpenCV reads: such a file is read as an image whatever
+#: its first bytes hold, so a damaged or mislabelled one is refused as an image (FFmpeg would
+#: open some of them, e.g. a text file named ``.png``, and find no frame in it).
+IMAGE_SUFFIXES = frozenset(
+    {".png", ".jpg", ".jpeg", ".jpe", ".tif", ".tiff", ".bmp", ".dib", ".webp", ".pbm", ".pgm", ".ppm", ".pnm", ".pxm"}
+    | {".sr", ".ras", ".jp2", ".exr", ".hdr", ".pic", ".avif"}
 )
 
 #: Annotated-video endings ``--draw OUT`` writes, with the FourCC each is written with.
@@ -80,11 +89,12 @@ def input_kind(path: str | os.PathLike[str]) -> Literal["image", "video"]:
     Returns
     -------
     {"image", "video"}
-        ``"image"`` when OpenCV recognises an image format by the file's first bytes, or when
-        the path is missing or not a file (the image reader reports it); ``"video"`` otherwise.
+        ``"image"`` when OpenCV recognises an image format by the file's first bytes, when the
+        name ends as an image file does (:data:`IMAGE_SUFFIXES`), or when the path is missing
+        or not a file (the image reader reports each fault); ``"video"`` otherwise.
     """
     p = Path(path)
-    if not p.is_file() or cv2.haveImageReader(str(p)):
+    if not p.is_file() or p.suffix.lower() in IMAGE_SUFFIXES or cv2.haveImageReader(str(p)):
         return "image"
     return "video"
 

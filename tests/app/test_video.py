@@ -162,6 +162,18 @@ def test_unreadable_video_is_one_line_exit_1(dbfile: Path, clip: Path, tmp_path:
     assert len(res.stderr.splitlines()) == 1 and "neither an image nor a video" in res.stderr
 
 
+def test_a_file_named_as_an_image_is_refused_as_an_image(dbfile: Path, tmp_path: Path) -> None:
+    # FFmpeg opens a text file named .png and finds no frame: the message spoke of a video
+    fake = tmp_path / "notes.png"
+    fake.write_text("not a picture")
+    assert input_kind(fake) == "image"
+    res = _run("decode", "--db", str(dbfile), str(fake))
+    assert res.returncode == 1 and res.stdout == ""
+    assert res.stderr.splitlines() == [
+        f"error: {fake}: not an image OpenCV can read, or a damaged one (PNG, JPEG, TIFF, BMP, …)"
+    ]
+
+
 def test_truncated_images_are_errors_not_warnings(dbfile: Path, clip: Path, tmp_path: Path) -> None:
     cap = cv2.VideoCapture(str(clip))
     ok, frame = cap.read()
