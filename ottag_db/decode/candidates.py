@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
+from ottag_db.decode.image import frame_has_contrast
 from ottag_db.decode.placement_check import UNIT_SQUARE
 from ottag_db.decode.types import Detection, DetectorParams, Quad
 
@@ -106,6 +107,8 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     f = 1
     block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)  # local mean window (px)
     if kind == "otsu":
+        if not frame_has_contrast(gray, p.min_contrast):
+            return []
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
     elif kind == "bright_holes":
         mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
@@ -373,14 +376,11 @@ def same_tag(a: Detection, b: Detection) -> bool:
 def outlined_before(quad: Quad, seen: list[Quad]) -> bool:
     """Whether an earlier binarization of the frame outlined this candidate's data area too.
 
-    A foreshortened data area outlined anew is read again (see :func:`seen_before`), but by
-    model only: the detector gives it the first decomposition and no upsampled or rectified
-    reading. On 1,000 grazing frames (78–86°, ``tests/support/grazing.py``, and 1,000 more on a
-    dark frame) the readings of new outlines from the image, upsampled and rectified never read
-    a tag the first outline had not; by model they read 28 (10 on the dark frame). An ArUco
-    marker at 76–88° (``benchmarks/decode_clutter.py``) is outlined by up to three passes, and
-    each outline's rectified reading took 17–68 ms (its search for cuts): 229–265 → 155–157 ms
-    per frame.
+    A foreshortened data area outlined anew (:func:`seen_before`) is read again by model only
+    (its first decomposition, no upsampled or rectified reading). On 2,000 grazing frames
+    (78–86°, ``tests/support/grazing.py``, usual and dark) those readings never read a tag the
+    first outline had not; by model, 38. An ArUco marker at 76–88° spent 17–68 ms in each of up
+    to three outlines' rectified readings (``benchmarks/decode_clutter.py``: 229–265 → 155 ms).
 
     Parameters
     ----------
