@@ -6,6 +6,7 @@ Three sets of 640×480 frames (``ottag_db.printing.clutter``), none holding an O
 - *patterns*: three flat patches per frame (ArUco 6×6, AprilTag 36h11 and ArUco 4×4 markers,
   checkerboards, white text), tilt 0–50° — the decoder tests' negatives (seed 11);
 - *noise*: uniform grey-level noise, plain and blurred (σ 3 px);
+- *blank*: a flat grey (15–240) with sensor noise (σ 1–4): a blank wall, a lens cap;
 - *oblique markers*: one ArUco 6×6 marker tilted 76–88°, where our decoder also reads failed
   candidates in a rectified view and by model.
 Prints, per set, ms/frame of both detectors with OpenCV's default threads (best of two passes),
@@ -54,6 +55,7 @@ def main(frames: int) -> None:
     sets: list[tuple[str, list[NDArray[np.uint8]]]] = [
         ("patterns", list(clutter.clutter_frames(np.random.default_rng(11), frames))),
         ("noise", list(clutter.noise_frames(np.random.default_rng(11), max(1, frames // 8)))),
+        ("blank", list(clutter.blank_frames(np.random.default_rng(11), max(1, frames // 4)))),
         ("oblique markers", list(clutter.oblique_marker_frames(np.random.default_rng(11), max(1, frames // 2)))),
     ]
     print(f"OpenCV threads: {cv2.getNumThreads()}; ms/frame, best of 2 passes")

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from ottag_db.printing.scenes import camera_matrix, pose_homography, random_pose, render_scene
 
-__all__ = ["clutter_frames", "noise_frames", "oblique_marker_frames"]
+__all__ = ["blank_frames", "clutter_frames", "noise_frames", "oblique_marker_frames"]
 
 #: ArUco dictionaries of the marker patches: 6×6, AprilTag 36h11, 4×4.
 _DICTIONARIES = (cv2.aruco.DICT_6X6_250, cv2.aruco.DICT_APRILTAG_36h11, cv2.aruco.DICT_4X4_50)
@@ -90,6 +90,27 @@ def noise_frames(rng: np.random.Generator, n: int) -> Iterator[NDArray[np.uint8]
     for _ in range(n):
         yield rng.integers(0, 256, (480, 640), dtype=np.uint8)
         yield np.asarray(cv2.GaussianBlur(rng.integers(0, 256, (480, 640), dtype=np.uint8), (0, 0), 3), np.uint8)
+
+
+def blank_frames(rng: np.random.Generator, n: int) -> Iterator[NDArray[np.uint8]]:
+    """640×480 frames of nothing but a flat grey (level 15–240) and sensor noise (σ 1–4): a
+    blank wall, a lens cap, a dark room.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of the levels and the noise.
+    n : int
+        Frames.
+
+    Yields
+    ------
+    numpy.ndarray
+        ``(480, 640)`` uint8 frames.
+    """
+    for _ in range(n):
+        level, sigma = rng.uniform(15, 240), rng.uniform(1, 4)
+        yield np.clip(np.rint(level + rng.normal(0, sigma, (480, 640))), 0, 255).astype(np.uint8)
 
 
 def oblique_marker_frames(

@@ -177,10 +177,11 @@ def test_dictionary_polarity(bundled):
 
 # ---------------------------------------------------------------------- negatives
 def _negative_frames(seed: int, n: int):
-    """``n`` frames of markers, checkerboards and text, then 6 of noise."""
+    """``n`` frames of markers, checkerboards and text, then 6 of noise and 3 blank ones."""
     rng = np.random.default_rng(seed)
     yield from clutter.clutter_frames(rng, n)
     yield from clutter.noise_frames(rng, 3)
+    yield from clutter.blank_frames(rng, 3)
 
 
 def test_negatives(bundled):
