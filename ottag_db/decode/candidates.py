@@ -260,7 +260,9 @@ def _quiet_zone_miss(inner: NDArray[Any], outer: NDArray[Any]) -> float:
         clockwise(inner.reshape(4, 2).astype(np.float64)).astype(np.float32), UNIT_SQUARE.astype(np.float32)
     )
     seen = cv2.perspectiveTransform(clockwise(outer.reshape(4, 2).astype(np.float64)).reshape(1, 4, 2), to_unit)[0]
-    return min(float(np.abs(np.roll(seen, r, axis=0) - _QUIET_OUTLINE).max()) for r in range(4))
+    s: list[list[float]] = seen.tolist()  # the four turns on 8 numbers: plain Python
+    q: list[list[float]] = _QUIET_OUTLINE.tolist()
+    return min(max(abs(a - b) for i in range(4) for a, b in zip(s[i - r], q[i], strict=True)) for r in range(4))
 
 
 def searches_at_half_resolution(shape: tuple[int, ...], params: DetectorParams) -> bool:
@@ -376,11 +378,8 @@ def same_tag(a: Detection, b: Detection) -> bool:
 def outlined_before(quad: Quad, seen: list[Quad]) -> bool:
     """Whether an earlier binarization of the frame outlined this candidate's data area too.
 
-    A foreshortened data area outlined anew (:func:`seen_before`) is read again by model only
-    (its first decomposition, no upsampled or rectified reading). On 2,000 grazing frames
-    (78–86°, ``tests/support/grazing.py``, usual and dark) those readings never read a tag the
-    first outline had not; by model, 38. An ArUco marker at 76–88° spent 17–68 ms in each of up
-    to three outlines' rectified readings (``benchmarks/decode_clutter.py``: 229–265 → 155 ms).
+    A foreshortened data area outlined anew (:func:`seen_before`) is read again, by model only
+    (the detector's reasons are at its call).
 
     Parameters
     ----------
