@@ -13,22 +13,15 @@ from numpy.typing import NDArray
 from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.image import frame_has_contrast
 from ottag_db.decode.placement_check import UNIT_SQUARE
-from ottag_db.decode.types import Detection, DetectorParams, Quad
+from ottag_db.decode.quads import clockwise, same_quad, squeeze
+from ottag_db.decode.types import DetectorParams, Quad
 
 __all__ = [
     "JOINED_MAX_HOLES",
     "JOINED_QUIET_TOLERANCE",
     "Binarization",
-    "around_detection",
     "find_quads",
-    "outlined_before",
-    "same_quad",
-    "same_tag",
     "searches_at_half_resolution",
-    "seen_before",
-    "shows_print",
-    "squeeze",
-    "within_detection",
 ]
 
 _F64 = NDArray[np.float64]
@@ -61,9 +54,6 @@ JOINED_QUIET_TOLERANCE = 0.3
 JOINED_MAX_HOLES = 256
 #: The printed quiet zone's outline in data-area units (corners in the unit square's order).
 _QUIET_OUTLINE = (UNIT_SQUARE - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
-#: A foreshortened candidate that a later binarization outlines with a corner at least this far
-#: (px) from every corner of the earlier outline is read again (see :func:`seen_before`).
-OUTLINE_MOVED_PX = 1.5
 
 
 def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams) -> list[Quad]:
@@ -82,7 +72,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         global Otsu, or local mean thresholding at full resolution keeping only the thin quads
         (area over longest side under ``2 · HALF_RES_MIN_SIDE``) a half-resolution search
         cannot see; ``"bright_holes"``: the pixels brighter than their local mean at full
-        resolution, keeping the foreshortened quads (:func:`squeeze` at most
+        resolution, keeping the foreshortened quads (:func:`~ottag_db.decode.quads.squeeze` at most
         ``rectify_max_ratio``) of their holes. Nearly edge-on, a normal data area's dark outline
         breaks where its bright triangles blur into the quiet zone, while the inverted one's
         is a hole in the dark quiet zone whatever its triangles do; this pass finds the normal
@@ -96,7 +86,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     -------
     list of Quad
         At most ``params.max_candidates`` quads (image pixels), largest area first, no two
-        the same (see :func:`same_quad`).
+        the same (see :func:`~ottag_db.decode.quads.same_quad`).
     """
     p = params
     h, w = gray.shape
@@ -282,218 +272,3 @@ def searches_at_half_resolution(shape: tuple[int, ...], params: DetectorParams) 
     bool
     """
     return not params.adaptive_block and min(shape[:2]) >= 240 and params.min_quad_side_px >= 2 * HALF_RES_MIN_SIDE
-
-
-def clockwise(q: _F64) -> _F64:
-    """Order 4 corners clockwise on screen (y down), starting nearest the image origin.
-
-    Parameters
-    ----------
-    q : numpy.ndarray
-        ``(4, 2)`` corners of a convex quad, any order.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(4, 2)`` float64, the same corners reordered.
-    """
-    pts = q.tolist()
-    cx = sum(x for x, _ in pts) / len(pts)
-    cy = sum(y for _, y in pts) / len(pts)
-    pts.sort(key=lambda xy: math.atan2(xy[1] - cy, xy[0] - cx))
-    sums = [x + y for x, y in pts]
-    start = sums.index(min(sums))
-    return np.array(pts[start:] + pts[:start], dtype=np.float64)
-
-
-def same_quad(a: Quad, b: Quad) -> bool:
-    """True when two candidates are the same data area: same polarity, areas within a factor
-    1.4, centres closer than 15 % of the larger side."""
-    if a.polarity != b.polarity:
-        return False
-    ratio = a.area / max(b.area, 1e-9)
-    if not 0.7 < ratio < 1.4:
-        return False
-    ax, ay = _centre(a.corners.tolist())
-    bx, by = _centre(b.corners.tolist())
-    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2) < 0.15 * math.sqrt(max(a.area, b.area))
-
-
-def around_detection(quad: Quad, detections: list[Detection]) -> bool:
-    """True when ``quad`` is centred on a tag already decoded and not smaller than its data area.
-
-    Candidates are read smallest first, so this skips the outline of a decoded tag's quiet
-    zone (or a frame around it) and duplicates of its data area without reading them.
-    """
-    if not detections:
-        return False
-    # plain Python on 4 corners per detection: a frame with many tags calls this per candidate
-    cx, cy = _centre(quad.corners.tolist())
-    reach = 0.15 * math.sqrt(quad.area)
-    for d in detections:
-        corners = d.corners.astype(np.float32).tolist()  # the area as OpenCV's of float32 points
-        if quad.area > 0.8 * _area(corners):
-            dx, dy = _centre(d.corners.tolist())
-            if math.sqrt((dx - cx) ** 2 + (dy - cy) ** 2) < reach:
-                return True
-    return False
-
-
-def within_detection(quad: Quad, detections: list[Detection]) -> bool:
-    """True when the centre of ``quad`` lies on a decoded tag: inside its data area grown by the
-    quiet zone ``export`` prints (0.25 of the side each way, so 1.5 × about its centre).
-
-    Reading by model runs after a pass's other readings and skips such candidates: pieces of a
-    decoded tag (a triangle's outline, a slit) are not other tags.
-    """
-    if not detections:
-        return False
-    px, py = _centre(quad.corners.tolist())
-    for d in detections:
-        corners = d.corners.tolist()
-        cx, cy = _centre(corners)
-        grown = [(cx + 1.5 * (x - cx), cy + 1.5 * (y - cy)) for x, y in corners]
-        # inside a convex polygon: the same side of every edge
-        signs = [
-            (bx - ax) * (py - ay) - (by - ay) * (px - ax)
-            for (ax, ay), (bx, by) in zip(grown, grown[1:] + grown[:1], strict=True)
-        ]
-        if all(s >= 0 for s in signs) or all(s <= 0 for s in signs):
-            return True
-    return False
-
-
-def same_tag(a: Detection, b: Detection) -> bool:
-    """True when two detections are one tag (same polarity, centres closer than 20 % of the
-    diagonal of ``a``)."""
-    if a.polarity != b.polarity:
-        return False
-    ac = a.corners.tolist()
-    ax, ay = _centre(ac)
-    bx, by = _centre(b.corners.tolist())
-    (x0, y0), _, (x2, y2), _ = ac
-    return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2) < 0.2 * math.sqrt((x0 - x2) ** 2 + (y0 - y2) ** 2)
-
-
-def outlined_before(quad: Quad, seen: list[Quad]) -> bool:
-    """Whether an earlier binarization of the frame outlined this candidate's data area too.
-
-    A foreshortened data area outlined anew (:func:`seen_before`) is read again, by model only
-    (the detector's reasons are at its call).
-
-    Parameters
-    ----------
-    quad : Quad
-        A candidate of the current binarization.
-    seen : list of Quad
-        The candidates of the earlier ones.
-
-    Returns
-    -------
-    bool
-        True when one of them is the same data area (:func:`same_quad`).
-    """
-    return any(same_quad(quad, o) for o in seen)
-
-
-def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
-    """Whether an earlier binarization of the frame found this candidate already.
-
-    A data area found again (:func:`same_quad`) is not read twice, except a foreshortened one
-    (:func:`squeeze` at most ``max_ratio``) whose new outline has a corner
-    ``OUTLINE_MOVED_PX`` or more from every corner of the earlier one. Nearly edge-on, a data
-    area is a few pixels thin and each threshold moves its outline by a good part of that: the
-    tag seen ranked 7th–23rd among the printed tags from the local threshold's corners and 1st
-    from Otsu's (tilt sweep of benchmarks/decode_sweeps.py, 84–86°), which were dropped as the
-    same candidate.
-
-    Parameters
-    ----------
-    quad : Quad
-        A candidate of the current binarization.
-    seen : list of Quad
-        The candidates of the earlier ones.
-    max_ratio : float
-        ``DetectorParams.rectify_max_ratio``: the foreshortening from which outlines are compared.
-
-    Returns
-    -------
-    bool
-    """
-    twins = [o for o in seen if same_quad(quad, o)]
-    if not twins:
-        return False
-    if squeeze(quad) > max_ratio:
-        return True
-    corners = quad.corners
-    for o in twins:
-        gaps = np.hypot(*(corners[:, None, :] - o.corners[None, :, :]).transpose(2, 0, 1))  # (4, 4)
-        if float(gaps.min(axis=1).max()) < OUTLINE_MOVED_PX:
-            return True
-    return False
-
-
-def _centre(corners: list[list[float]]) -> tuple[float, float]:
-    """Mean of a few ``[x, y]`` points."""
-    n = len(corners)
-    return sum(x for x, _ in corners) / n, sum(y for _, y in corners) / n
-
-
-def _area(corners: list[list[float]]) -> float:
-    """Unsigned area of a polygon given by its ``[x, y]`` corners (shoelace)."""
-    (px, py) = corners[-1]
-    twice = 0.0
-    for x, y in corners:
-        twice += px * y - py * x
-        px, py = x, y
-    return abs(0.5 * twice)
-
-
-def squeeze(quad: Quad) -> float:
-    """How strongly a candidate is foreshortened: the smaller over the larger singular value of
-    the affine map taking the unit square's diagonals to the quad's (1 head-on, about
-    cos(tilt) for a tilt about any axis; a side ratio would miss a tilt about a diagonal).
-
-    Parameters
-    ----------
-    quad : Quad
-        The candidate (image pixels).
-
-    Returns
-    -------
-    float
-        In [0, 1].
-    """
-    (ax, ay), (bx, by), (cx, cy), (dx, dy) = quad.corners.tolist()
-    # singular values of the 2×2 matrix of the diagonals in closed form (plain floats: this
-    # runs for every candidate, where np.linalg.svd's call overhead was 2 % of a frame)
-    m11, m21, m12, m22 = cx - ax, cy - ay, dx - bx, dy - by
-    frob = m11 * m11 + m12 * m12 + m21 * m21 + m22 * m22
-    det = abs(m11 * m22 - m12 * m21)
-    root = math.sqrt(max(frob * frob - 4.0 * det * det, 0.0))
-    big = math.sqrt(0.5 * (frob + root))
-    return det / big / big if big > 1e-12 else 0.0
-
-
-def shows_print(quad: Quad, params: DetectorParams) -> bool:
-    """Whether a reading of this candidate must show its tag as printed (the stored layout and
-    placement, when the lookup knows them): at oblique views (:func:`squeeze` at most
-    ``layout_check_ratio``) and on small data areas (side ``sqrt(area)`` under
-    ``print_check_side_px``), where a vertex lost at a sliver tip or in a blurred corner can
-    leave the points of another order type that fits within the bound. Elsewhere tags drawn by
-    other programs (other triangles, another placement) still read.
-
-    Parameters
-    ----------
-    quad : Quad
-        The candidate.
-    params : DetectorParams
-        ``layout_check_ratio`` (0: never) and ``print_check_side_px`` (0: never by size).
-
-    Returns
-    -------
-    bool
-    """
-    if params.layout_check_ratio <= 0:
-        return False
-    return squeeze(quad) <= params.layout_check_ratio or math.sqrt(quad.area) < params.print_check_side_px

@@ -28,21 +28,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
-from ottag_db.decode.candidates import (
-    Binarization,
-    around_detection,
-    find_quads,
-    outlined_before,
-    same_quad,
-    same_tag,
-    searches_at_half_resolution,
-    seen_before,
-    within_detection,
-)
+from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.quads import around_detection, outlined_before, same_quad, same_tag, seen_before, within_detection
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
 from ottag_db.decode.splitting import FRAME_SEARCH, SearchBudget
@@ -106,7 +97,7 @@ class Detector:
     data area under ``print_check_side_px``, only when the reading by model reads that tag too).
     A foreshortened data area that a later binarization outlines anew is read again with its
     first decomposition and by model, without the alternatives and the upsampled and rectified
-    views (:func:`~ottag_db.decode.candidates.outlined_before`).
+    views (:func:`~ottag_db.decode.quads.outlined_before`).
 
     The detector holds only immutable settings and the lookup: :meth:`detect` keeps no state
     between calls and may run on several threads at once (the lookup must allow concurrent

@@ -13,8 +13,8 @@ from ottag_db.core.layout import LAYOUT_MAX_K
 from ottag_db.core.lookup import LookupEntry, TagLookup
 from ottag_db.core.single_set import OrientationTable, read_set
 from ottag_db.core.types import Polarity
-from ottag_db.decode.candidates import shows_print
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.quads import shows_print
 from ottag_db.decode.soft import (
     FlipReading,
     Scored,
@@ -81,7 +81,7 @@ def identify(
         soft-decoded (with ``verify`` and ``soft_max_flips`` > 0): a detection then has
         ``corrected_flips`` set, a refusal is ``"low_margin"`` with the reason in its detail.
         The detected triangles must be the ID's printed layout (when the lookup knows it) at
-        oblique or small views (:func:`~ottag_db.decode.candidates.shows_print`), and also
+        oblique or small views (:func:`~ottag_db.decode.quads.shows_print`), and also
         when the verified points lie farther than the reprojection bound from where the fit
         puts them (they fit only along their side lines); the points must then also lie where
         the stored placement prints them.

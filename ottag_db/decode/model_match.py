@@ -62,7 +62,6 @@ from numpy.typing import NDArray
 
 from ottag_db.core.canonical import lambda_text
 from ottag_db.core.single_set import read_set
-from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import (
     INVERTED_QUIET,
@@ -74,6 +73,7 @@ from ottag_db.decode.model_align import (
 )
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.quads import squeeze
 from ottag_db.decode.reading import points_fit
 from ottag_db.decode.templates import (
     MODEL_GRID,

@@ -16,10 +16,10 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.cluster import cluster_hypotheses
 from ottag_db.decode.identify import Catalogue, identify
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.quads import squeeze
 from ottag_db.decode.refine import refine
 from ottag_db.decode.segmentation import MAX_TRIANGLES, NO_DECOMPOSITION, decompose, segment, then_alternatives
 from ottag_db.decode.splitting import FitMemo, SearchBudget

@@ -219,7 +219,7 @@ class DetectorParams:
       in a fronto-parallel, upsampled view of its data area (:mod:`~ottag_db.decode.rectify`;
       the points are identified and verified in frame pixels as usual);
       ``rectify_max_ratio``: only quads foreshortened to at most this ratio are retried (see
-      :func:`~ottag_db.decode.candidates.squeeze`; 0.5: a tilt beyond about 60°);
+      :func:`~ottag_db.decode.quads.squeeze`; 0.5: a tilt beyond about 60°);
       ``layout_check_ratio``: on quads foreshortened to at most this ratio, the detected
       triangles must be a stored layout of the ID (when the lookup has layouts): at grazing
       views a vertex lost at a sliver tip can leave a set that fits another order type within
@@ -241,7 +241,7 @@ class DetectorParams:
       frames of the benchmarks/soft_decoding.py scenes, seeds 2–7, soft decoding off); with the
       checks at every size those frames read the same tags and none of the three; 0 turns this
       off (see
-      :func:`~ottag_db.decode.candidates.shows_print`);
+      :func:`~ottag_db.decode.quads.shows_print`);
 
     Soft decoding (with ``verify``; :mod:`ottag_db.decode.soft`) of a reading below
     ``min_margin_px``:

@@ -10,7 +10,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry
-from ottag_db.decode.candidates import shows_print
 from ottag_db.decode.placement_check import (
     PLACEMENT_BOUND_FACTOR,
     PLACEMENT_MAX_UNITS,
@@ -18,6 +17,7 @@ from ottag_db.decode.placement_check import (
     apply_homography,
     placement_error,
 )
+from ottag_db.decode.quads import shows_print
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 
 __all__ = [
@@ -300,7 +300,7 @@ def assess(
         Uses ``verify``, ``max_reproj_px``/``_rel``, ``check_quad``, ``max_quad_error``.
     printed : bool
         The points must lie where the stored placement prints them at any view, not only at
-        oblique or small ones (:func:`~ottag_db.decode.candidates.shows_print`).
+        oblique or small ones (:func:`~ottag_db.decode.quads.shows_print`).
 
     Returns
     -------

@@ -1,29 +1,16 @@
-"""Candidate stage: quads of a binarized frame, corner order, duplicates."""
+"""Candidate stage: quads of a binarized frame."""
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import cv2
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
-from ottag_db.decode.candidates import (
-    around_detection,
-    clockwise,
-    find_quads,
-    outlined_before,
-    same_quad,
-    same_tag,
-    seen_before,
-    shows_print,
-    squeeze,
-)
-from ottag_db.decode.types import Detection, Quad
+from ottag_db.decode.candidates import find_quads
+from ottag_db.decode.quads import clockwise, squeeze
+from ottag_db.decode.types import Quad
 from ottag_db.printing.scenes import DrawableTag
 from tests.support import synthetic_tags as syn
 from tests.support.grazing import grazing_corners, grazing_frame, printed_tags
@@ -54,68 +41,6 @@ def test_polarity_filter_and_size_limits() -> None:
     assert all(q.polarity == "inverted" for q in only_inverted)
     assert find_quads(image, "otsu", DetectorParams(min_quad_area_px=200**2)) == []
     assert find_quads(np.full((50, 50), 255, np.uint8), "otsu", DetectorParams()) == []
-
-
-def test_clockwise_starts_nearest_the_origin() -> None:
-    q = np.array([[10, 10], [0, 10], [10, 0], [0, 0.0]])
-    assert clockwise(q).tolist() == [[0, 0], [10, 0], [10, 10], [0, 10]]
-
-
-def test_same_quad_same_tag_and_around_detection() -> None:
-    c = np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]])
-    a = Quad("normal", c, 10000.0)
-    assert same_quad(a, Quad("normal", c + 2, 10000.0))
-    assert not same_quad(a, Quad("inverted", c, 10000.0))
-    assert not same_quad(a, Quad("normal", c * 2, 40000.0))
-    det = Detection("3:010001100", 3, 1, 1, "normal", np.zeros((3, 2)), None, c, None, None, 5.0)
-    assert same_tag(det, det) and not same_tag(det, replace(det, polarity="inverted"))
-    frame = Quad("normal", (c - 50) * 2 + 50, 40000.0)  # the quiet zone's outline around the tag
-    assert around_detection(frame, [det])
-    assert not around_detection(Quad("normal", c * 0.5, 2500.0), [det])
-
-
-def test_a_thin_data_area_outlined_anew_by_a_later_binarization_is_read_again() -> None:
-    thin = Quad("normal", np.array([[0, 0], [100, 0], [100, 8], [0, 8.0]]), 800.0)
-    square = Quad("normal", np.array([[0, 0], [100, 0], [100, 100], [0, 100.0]]), 10000.0)
-    r = DetectorParams().rectify_max_ratio
-    assert not seen_before(thin, [], r)
-    assert not seen_before(thin, [square], r)  # another data area
-    # found again by Otsu with two corners 2 px out: nearly edge-on, a new outline
-    moved = Quad("normal", thin.corners + np.array([[0, 0], [0, 0], [0, 2], [0, 2.0]]), 1000.0)
-    assert not seen_before(moved, [thin], r)
-    # the same outline within a pixel, in another corner order: seen
-    again = Quad("normal", np.roll(thin.corners, 1, axis=0) + 0.5, 800.0)
-    assert seen_before(again, [thin], r)
-    # head-on, any outline of the same data area is seen (no second reading)
-    grown = Quad("normal", square.corners + np.array([[0, 0], [0, 0], [0, 2], [0, 2.0]]), 10100.0)
-    assert seen_before(grown, [square], r)
-    assert seen_before(moved, [thin], 0.0)  # no candidate is foreshortened enough: seen
-    # read again, but as an outline of a data area read before (by model only)
-    assert outlined_before(moved, [square, thin]) and not outlined_before(thin, [square])
-
-
-def test_readings_must_show_the_print_at_oblique_views_and_on_small_data_areas() -> None:
-    def square(side: float) -> Quad:
-        return Quad("normal", np.array([[0, 0], [side, 0], [side, side], [0, side]]), side * side)
-
-    thin = Quad("normal", np.array([[0, 0], [100, 0], [100, 20], [0, 20.0]]), 2000.0)
-    p = DetectorParams()
-    assert shows_print(thin, p)  # foreshortened to 0.2
-    assert shows_print(square(24.0), p)  # a tag at 6–7 m
-    assert shows_print(square(50.0), p)  # where two triangles of an 8-point tag can merge
-    assert not shows_print(square(80.0), p)  # head-on and large enough: other programs' tags read
-    assert not shows_print(square(24.0), replace(p, print_check_side_px=0.0))
-    assert not shows_print(thin, replace(p, layout_check_ratio=0.0))
-
-
-@settings(max_examples=200, deadline=None)
-@given(st.lists(st.floats(-500, 500, allow_nan=False), min_size=8, max_size=8))
-def test_squeeze_is_the_singular_value_ratio_of_the_diagonals(coords: list[float]) -> None:
-    """The closed form equals numpy's SVD of the 2×2 matrix of the diagonals."""
-    q = np.array(coords).reshape(4, 2)
-    sv = np.linalg.svd(np.stack([q[2] - q[0], q[3] - q[1]], axis=1), compute_uv=False)
-    expected = sv[1] / sv[0] if sv[0] > 1e-9 else 0.0
-    assert squeeze(Quad("normal", q, 1.0)) == pytest.approx(expected, abs=1e-6)
 
 
 def test_the_bright_holes_pass_finds_foreshortened_normal_data_areas_only() -> None:

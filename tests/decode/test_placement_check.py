@@ -9,13 +9,13 @@ import pytest
 
 from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
-from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.placement_check import (
     apply_homography,
     data_area_depths,
     placement_error,
     square_homography,
 )
+from ottag_db.decode.quads import squeeze
 from ottag_db.decode.types import Detection, Quad, Rejection
 from ottag_db.decode.verify import line_system, verify
 from ottag_db.printing import scenes as sc

@@ -7,9 +7,9 @@ import pytest
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
-from ottag_db.decode.candidates import squeeze
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.profile import StageClock
+from ottag_db.decode.quads import squeeze
 from ottag_db.decode.rectify import read_rectified, rectified_view, wants_rectified
 from ottag_db.decode.types import Quad, Rejection
 from ottag_db.printing import scenes as sc
