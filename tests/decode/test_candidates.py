@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ottag_db.core.lookup import MemoryLookup
-from ottag_db.decode import Detector, DetectorParams
+from ottag_db.decode import Detector, DetectorParams, candidates
 from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.quads import clockwise, squeeze
 from ottag_db.decode.types import Quad
@@ -90,3 +90,19 @@ def test_a_data_area_cut_into_pieces_is_outlined_by_the_hull_of_its_pieces(print
     found = find_quads(image, "bright_holes", DetectorParams())
     assert min(_corner_miss(q, truth) for q in found) < 5.0  # 5 % of the 98 px side
     assert [d.lambda_text for d in Detector(lookup).detect(image)] == [tag.lambda_text]
+
+
+def test_a_thin_data_area_notched_by_its_triangles_is_outlined_by_its_hull(printed, monkeypatch) -> None:
+    """A normal tag at 86° on the usual frame: its white triangles blur into the white quiet
+    zone and notch the dark data area's outline, which is no quad. The thin-quad pass outlines
+    the dark region's hull instead, within a pixel of the true corners, and the tag reads from
+    it; without the hull it does not."""
+    lookup, tags = printed
+    tag, image = grazing_frame(tags, 233, 86.0, "normal")
+    truth = grazing_corners(tags, 233, 86.0, "normal")
+    found = find_quads(image, "adaptive_thin", DetectorParams())
+    assert [q.polarity for q in found] == ["normal"] and _corner_miss(found[0], truth) < 1.0
+    assert [d.lambda_text for d in Detector(lookup).detect(image)] == [tag.lambda_text]
+    monkeypatch.setattr(candidates, "NOTCHED_MIN_FILL", 2.0)  # no hull fills twice its area
+    assert find_quads(image, "adaptive_thin", DetectorParams()) == []
+    assert Detector(lookup).detect(image) == []
