@@ -107,7 +107,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     f = 1
     block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)  # local mean window (px)
     if kind == "otsu":
-        if not frame_has_contrast(gray, p.min_contrast):  # judged on a sample of the frame
+        if not frame_has_contrast(gray, p.min_contrast):  # judged on the frame reduced 4x
             return []  # (the mask below keeps OpenCV's threshold of the whole frame)
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
     elif kind == "bright_holes":

@@ -194,8 +194,8 @@ class DetectorParams:
     Reading:
 
     - ``min_contrast``: grey levels between the dark and bright class inside the data area
-      (and between Otsu's classes of the whole frame, below which the global threshold's pass
-      is not run: :func:`~ottag_db.decode.candidates.frame_has_contrast`);
+      (and the least departure of a frame from its local mean, below which the global
+      threshold's pass is not run: :func:`~ottag_db.decode.image.frame_has_contrast`);
     - ``min_triangle_area_px``: smaller components inside a data area are ignored as noise;
     - ``merge_radius_px`` / ``merge_radius_rel``: vertex estimates of different triangles are
       one (shared) point when the least-squares intersection of all their side lines lies

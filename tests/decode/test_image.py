@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -63,3 +64,22 @@ def test_a_blank_frame_of_noise_has_no_contrast_for_the_global_threshold() -> No
     assert frame_has_contrast(tag, 20.0) and not frame_has_contrast(tag, 400.0)
     quads = find_quads(tag, "otsu", DetectorParams())
     assert len(quads) == 1 and abs(math.sqrt(quads[0].area) - 60) < 3
+
+
+def test_a_small_tag_under_a_weak_light_gradient_gives_the_global_threshold_contrast() -> None:
+    """A data area 18 px wide (21 cm at 8 m) on a frame whose light falls off by 15 % (noise
+    σ 1.5): the frame's Otsu classes split the gradient and lie closer than 20 grey levels, but
+    the tag departs from its surroundings by far more, and the global threshold's pass outlines
+    it (benchmarks/decode_sweeps.py at 8 m lost such tags to the earlier judgement)."""
+    tag = syn.draw_tags((480, 640), [(18, (300, 230))]) * (235 / 255)  # white paper 235
+    ground = np.full(tag.shape, 200.0)  # the frame around the quiet zone (a quarter of the side)
+    ground[225:253, 295:323] = tag[225:253, 295:323]
+    ramp = np.linspace(0.85, 1.0, 640)[None, :]
+    noise = np.random.default_rng(0).normal(0, 1.5, tag.shape)
+    frame = np.clip(ground * ramp + noise + 0.5, 0, 255).astype(np.uint8)
+    sample = cv2.resize(frame, (160, 120), interpolation=cv2.INTER_NEAREST)
+    whole = otsu(cv2.calcHist([sample], [0], None, [256], [0, 256]).ravel())
+    assert whole is not None and whole.contrast < 20.0  # what was judged before 2026-12-03
+    assert frame_has_contrast(frame, 20.0)
+    quads = find_quads(frame, "otsu", DetectorParams())
+    assert len(quads) == 1 and abs(math.sqrt(quads[0].area) - 18) < 2
