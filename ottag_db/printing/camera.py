@@ -88,7 +88,10 @@ def random_pose(
     width_px : float
         Side of the data area in pixels if it were seen frontally at the same distance.
     tilt_deg : float
-        Angle between the tag's normal and the optical axis, degrees.
+        Angle between the tag's normal and the optical axis, degrees. The tag always turns its
+        printed face to the camera: where the drawn tilt axis would show its back (the ray to
+        ``center_px`` more than ``90 - tilt_deg`` degrees off the axis, on the far side), the
+        tilt goes the other way about that axis.
     center_px : (float, float)
         Image position of the data area's centre, px.
 
@@ -104,8 +107,14 @@ def random_pose(
     phi = rng.uniform(0, 2 * math.pi)
     psi = rng.uniform(0, 2 * math.pi)
     tilt_axis = np.array([math.cos(phi), math.sin(phi), 0.0])
-    r = _rotation(tilt_axis, math.radians(tilt_deg)) @ _rotation(np.array([0, 0, 1.0]), psi)
+    spin = _rotation(np.array([0, 0, 1.0]), psi)
+    r = _rotation(tilt_axis, math.radians(tilt_deg)) @ spin
     c = z * np.linalg.solve(k_mat, np.array([center_px[0], center_px[1], 1.0]))
+    if r[:, 2] @ c <= 0:
+        # The camera would be behind the tag's plane (a tilt near 90° at a centre off the
+        # optical axis): the frame would show the back of the paper, the tag mirrored. Tilted
+        # the other way about the same axis the printed face is toward the camera.
+        r = _rotation(-tilt_axis, math.radians(tilt_deg)) @ spin
     t = c - r @ np.array([size / 2, size / 2, 0.0])
     return r, t
 

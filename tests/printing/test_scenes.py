@@ -49,6 +49,23 @@ def test_frontal_pose_maps_the_data_area_to_a_square_of_the_asked_width() -> Non
     assert np.allclose(corners.mean(axis=0), [300.0, 200.0])
 
 
+def test_a_pose_near_edge_on_off_the_optical_axis_shows_the_printed_face_not_its_mirror() -> None:
+    # At 89° with the centre 40 px off the principal point the ray to the tag is 3° off the
+    # axis: about half the tilt axes would put the camera behind the tag's plane, and the
+    # frame would show the back of the paper, the tag mirrored (the data area's corners in
+    # the other turning sense, so a decoder reads the mirror image's order type).
+    k_mat = sc.camera_matrix()
+    rng = np.random.default_rng(7)
+    for _ in range(60):
+        r_mat, t = sc.random_pose(rng, k_mat, 0.21, 98.0, 89.0, (360.0, 270.0))
+        assert math.degrees(math.acos(r_mat[2, 2])) == pytest.approx(89.0)
+        centre = t + r_mat @ np.array([0.105, 0.105, 0.0])
+        assert r_mat[:, 2] @ centre > 0  # the camera is on the printed side of the plane
+        x, y = sc.project(sc.pose_homography(k_mat, r_mat, t, 0.21), SQUARE).T
+        # twice the signed area (x right, y down): positive for the unit square itself
+        assert float(x @ np.roll(y, -1) - np.roll(x, -1) @ y) > 0
+
+
 def test_tilt_foreshortens_and_the_tag_stays_in_front_of_the_camera() -> None:
     rng = np.random.default_rng(1)
     k_mat = sc.camera_matrix()
