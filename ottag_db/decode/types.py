@@ -265,7 +265,11 @@ class DetectorParams:
     - ``model_match``: choose among the lookup's printed tags (stored realization, layout and
       placement) by projecting each through the quad and aligning the best to the image;
     - ``model_max_side_px``: data areas whose side (``sqrt(area)``) is under this, px, are
-      read by model at any view (at 6–8 m, 21 cm tags are 18–24 px wide);
+      read by model at any view (at 6–8 m, 21 cm tags are 18–24 px wide; at 3.5–4 m, 37–42
+      px; an inverted tag at 6 m can show only its dark quiet zone's outline, 36 px, its dark
+      triangles blurred into it). Up from 32 px: benchmarks/decode_sweeps.py --paired (200
+      scenes) read the 10 normal tags it missed at 3.5 and 4 m and the 16 inverted ones at
+      6 m, with no look-alike at 3–7 m and the clutter sets' model stage as before;
     - ``model_min_correlation``: the aligned tag's correlation with the image (both inside the
       data area; the tag drawn into the frame with a camera's blur) must reach this;
     - ``model_min_gap``: … and exceed by this every other refined tag's that also stays within
@@ -333,7 +337,7 @@ class DetectorParams:
     #: 0.35 keeps 202 of the 216 correct ones.
     soft_min_fit_gap: float = 0.35
     model_match: bool = True
-    model_max_side_px: float = 32.0
+    model_max_side_px: float = 48.0
     model_min_correlation: float = 0.92
     model_min_gap: float = 0.08
     model_max_misfit: float = 0.28

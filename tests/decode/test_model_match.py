@@ -16,6 +16,7 @@ from ottag_db.decode.profile import StageClock
 from ottag_db.decode.segmentation import segment
 from ottag_db.decode.templates import MODEL_GRID, draw_through, rasterize, template_bank
 from ottag_db.decode.types import Detection, ModelGuess, Quad, Rejection
+from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
 from tests.support.grazing import grazing_corners, grazing_frame, grazing_set, printed_tags
 
@@ -103,6 +104,10 @@ def test_which_candidates_are_read_by_model() -> None:
     small = Quad("normal", np.array([[0, 0], [20, 0], [20, 20], [0, 20.0]]), 400.0)  # a tag at 7 m
     assert wants_model(small, Rejection("non_triangle"), _REASONS, p)
     assert not wants_model(small, Rejection("non_triangle"), _REASONS, DetectorParams(model_max_side_px=0))
+    # a tag at 3.7 m, or the dark quiet zone of an inverted tag at 6 m
+    middling = Quad("normal", np.array([[0, 0], [40, 0], [40, 40], [0, 40.0]]), 1600.0)
+    assert wants_model(middling, Rejection("non_triangle"), _REASONS, p)
+    assert not wants_model(middling, Rejection("non_triangle"), _REASONS, DetectorParams(model_max_side_px=32))
     # not a quad without contrast inside: thin dark strips in clutter are such quads (on the
     # frames of benchmarks/decode_speed.py, one in four frames has one, 10–90 ms each by model)
     assert not wants_model(thin, Rejection("low_contrast"), _REASONS, p)
@@ -111,6 +116,28 @@ def test_which_candidates_are_read_by_model() -> None:
     assert not wants_model(square, Rejection("low_contrast"), _REASONS, p, edge_on_pass=True)
     assert not wants_model(small, Rejection("low_contrast"), _REASONS, p, edge_on_pass=True)
     assert not wants_model(thin, Rejection("point_count"), _REASONS, DetectorParams(model_match=False))
+
+
+@pytest.mark.parametrize("seed", [0, 7])
+def test_a_small_inverted_tag_seen_only_as_its_dark_quiet_zone_is_read_by_model(printed, seed) -> None:
+    """An inverted 21 cm tag at 6 m: a 24 px data area whose blurred dark triangles join its
+    dark quiet zone, so that the quiet zone's outline (36 px) is the only candidate; read by
+    model, the dark quad's views include the inverted tag inside it."""
+    lookup, tags = printed
+    rng = np.random.default_rng(seed)
+    tag = tags[seed % len(tags)]
+    spec = sc.posed_spec(tag, rng, 24.5, 15.0, "inverted")
+    image = sc.render_scene((480, 640), [spec], rng, blur=0.7, noise=1.0, gradient=0.25, jpeg=85).image
+    dets, rejected = Detector(lookup, DetectorParams(model_match=False)).detect_with_rejections(image)
+    assert dets == [] and rejected
+    for r in rejected:
+        x, y = r.corners.T
+        side = np.sqrt(abs(x @ np.roll(y, -1) - np.roll(x, -1) @ y) / 2)
+        assert r.polarity == "normal" and 34 < side < 38
+    read = Detector(lookup).detect(image)
+    assert [(d.lambda_text, d.polarity) for d in read] == [(tag.lambda_text, "inverted")]
+    assert read[0].model_correlation is not None
+    assert Detector(lookup, DetectorParams(model_max_side_px=32)).detect(image) == []
 
 
 def test_grazing_set_is_read_with_no_wrong_id(printed, capsys) -> None:
