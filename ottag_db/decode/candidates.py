@@ -20,6 +20,7 @@ __all__ = [
     "JOINED_MAX_HOLES",
     "JOINED_QUIET_TOLERANCE",
     "NOTCHED_MIN_FILL",
+    "SMALL_QUAD_SIDE",
     "Binarization",
     "find_quads",
     "searches_at_half_resolution",
@@ -34,6 +35,15 @@ Binarization = Literal["adaptive", "otsu", "adaptive_thin", "bright_holes"]
 #: The half-resolution candidate search is used only while the smallest data area keeps at
 #: least this side (px) there.
 HALF_RES_MIN_SIDE = 6.0
+#: The full-resolution pass for thin quads (``"adaptive_thin"``, run on a frame that read nothing)
+#: also keeps dark quads whose shortest side is under this (px), thin or not: at half resolution
+#: a normal data area of 18 px (a 21 cm tag at 8 m) is 9 px wide, and blur and noise there
+#: break its outline (benchmarks/decode_sweeps.py --paired, normal tags at 8 m: 6 of 200 had no
+#: candidate, all read now; the same scenes at 7–8 m with the tags removed from the lookup read
+#: no look-alike). Not bright quads: the white cells of markers are such (127 on the 100 ArUco
+#: frames of benchmarks/decode_speed.py, 25 % more time there), and a small inverted tag's
+#: dark quiet zone, twice the size, is found at half resolution.
+SMALL_QUAD_SIDE = 4 * HALF_RES_MIN_SIDE
 #: A thin quad (a data area seen at 84–86°, short sides 7–10 px at 1.5 m) is kept with short
 #: sides down to this fraction of ``min_quad_side_px`` when its two long sides are at least
 #: ``THIN_QUAD_LONG_SIDE`` times it: reading by model (:mod:`~ottag_db.decode.model_match`)
@@ -173,8 +183,9 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             math.hypot(bx - ax, by - ay), math.hypot(cx - bx, cy - by),
             math.hypot(dx - cx, dy - cy), math.hypot(ax - dx, ay - dy),
         ))  # fmt: skip
-        if kind == "adaptive_thin" and area >= 2 * HALF_RES_MIN_SIDE * sides[3]:
-            continue  # not thin (area over the longest side): the half-resolution pass sees it
+        thick = area >= 2 * HALF_RES_MIN_SIDE * sides[3]  # area over the longest side
+        if kind == "adaptive_thin" and thick and (inverted or sides[0] >= SMALL_QUAD_SIDE):
+            continue  # neither thin nor a small dark quad: the half-resolution pass sees it
         if sides[0] < p.min_quad_side_px and (
             sides[0] < THIN_QUAD_MIN_SIDE * p.min_quad_side_px or sides[2] < THIN_QUAD_LONG_SIDE * p.min_quad_side_px
         ):

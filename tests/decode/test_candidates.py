@@ -11,6 +11,7 @@ from ottag_db.decode import Detector, DetectorParams, candidates
 from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.quads import clockwise, squeeze
 from ottag_db.decode.types import Quad
+from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
 from tests.support import synthetic_tags as syn
 from tests.support.grazing import grazing_corners, grazing_frame, printed_tags
@@ -106,3 +107,23 @@ def test_a_thin_data_area_notched_by_its_triangles_is_outlined_by_its_hull(print
     monkeypatch.setattr(candidates, "NOTCHED_MIN_FILL", 2.0)  # no hull fills twice its area
     assert find_quads(image, "adaptive_thin", DetectorParams()) == []
     assert Detector(lookup).detect(image) == []
+
+
+@pytest.mark.parametrize("seed", [67, 164])
+def test_a_small_data_area_lost_at_half_resolution_is_outlined_by_the_full_resolution_pass(printed, seed) -> None:
+    """A normal tag at 8 m (an 18 px data area, blur σ 0.8 px, noise σ 2): at half resolution
+    it is 9 px wide and its outline no quad, the global threshold's outline is notched by its
+    triangles; the full-resolution pass of a frame that read nothing keeps it though it is not
+    thin, as it is small."""
+    lookup, tags = printed
+    rng = np.random.default_rng(seed)
+    tag = tags[seed % len(tags)]
+    spec = sc.posed_spec(tag, rng, 18.4, 20.0, "normal")
+    image = sc.render_scene((480, 640), [spec], rng, blur=0.8, noise=2.0, gradient=0.05, jpeg=85).image
+    p = DetectorParams()
+    assert find_quads(image, "adaptive", p) == [] and find_quads(image, "otsu", p) == []
+    (quad,) = find_quads(image, "adaptive_thin", p)
+    assert quad.polarity == "normal" and 250 < quad.area < 340
+    truth = sc.project(spec.homography, np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
+    assert _corner_miss(quad, truth) < 2.0
+    assert [d.lambda_text for d in Detector(lookup).detect(image)] == [tag.lambda_text]
