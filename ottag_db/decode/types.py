@@ -269,7 +269,7 @@ class DetectorParams:
       px; an inverted tag at 6 m can show only its dark quiet zone's outline, 36 px, its dark
       triangles blurred into it). Up from 32 px: benchmarks/decode_sweeps.py --paired (200
       scenes) read the 10 normal tags it missed at 3.5 and 4 m and the 16 inverted ones at
-      6 m, with no look-alike at 3–7 m and the clutter sets' model stage as before;
+      6 m, with no look-alike at 3–8 m and the clutter sets' model stage as before;
     - ``model_min_correlation``: the aligned tag's correlation with the image (both inside the
       data area; the tag drawn into the frame with a camera's blur) must reach this;
     - ``model_min_gap``: … and exceed by this every other refined tag's that also stays within
