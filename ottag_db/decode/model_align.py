@@ -77,12 +77,19 @@ _OUTLINE_CORE = (_OUTLINE_UNITS > _OUTLINE_RIM) & (_OUTLINE_UNITS < 1 - _OUTLINE
 _OUTLINE_MASK = np.full((_FINE_GRID, _FINE_GRID), 255, dtype=np.uint8)
 _OUTLINE_MASK[np.ix_(_OUTLINE_CORE, _OUTLINE_CORE)] = 0
 _OUTLINE_MASK.flags.writeable = False
+#: The refinement template's cells of the outline (the quiet band and the data area's rim
+#: inside :data:`_OUTLINE_RIM`, where no triangle is printed): the same for every tag.
+_FINE_UNITS = -_FINE_BAND + _FINE_STEP * (np.arange(_FINE_GRID) + 0.5)  # cell centres
+_FINE_RIM = (_FINE_UNITS < _OUTLINE_RIM) | (_FINE_UNITS > 1 - _OUTLINE_RIM)
+_FINE_OUTLINE = _FINE_RIM[:, None] | _FINE_RIM[None, :]
+_FINE_OUTLINE.flags.writeable = False
 #: Side of the window (refinement-template cells, 1/10 of the data area) over which the
 #: aligned tag's local misfit is averaged (see :class:`Aligned`).
 _MISFIT_WINDOW = 4
-#: Gaussian σ (frame pixels) of the camera blur the tag is drawn with when it is judged, and the
-#: quiet zone drawn around it (data-area units, :data:`INVERTED_QUIET`).
-_CAMERA_BLUR_PX = 0.45
+#: Gaussian σ (frame pixels) of the camera blurs the tag is drawn with when it is judged (see
+#: :class:`Aligned`): the first for the correlation, the one that fits the outline best for the
+#: misfits; and the quiet zone drawn around the tag (data-area units, :data:`INVERTED_QUIET`).
+_CAMERA_BLURS_PX = (0.45, 0.7, 1.0)
 _DRAWN_QUIET = INVERTED_QUIET
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
@@ -101,13 +108,16 @@ class Aligned:
     """A refined candidate: template row, view, homography data-area units → frame, the
     correlation of the aligned tag with the frame inside the data area, and its largest local
     misfit there. Both compare the frame with the tag as the camera would see it: drawn into
-    the frame through the aligned homography, blurred by ``_CAMERA_BLUR_PX`` and sampled back
-    like the frame. The misfit is the mean absolute residual of the frame against that view
-    (scaled to the frame's contrast by least squares) over a window of ``_MISFIT_WINDOW``
-    cells, in units of that contrast: a tag that resembles the one seen fits well overall but
-    leaves a patch where a triangle differs. The quiet misfit is the mean absolute residual
-    over the quiet band around the data area, with the scale and offset fitted inside it: the
-    band must be as bright or dark as the reading's polarity prints it."""
+    the frame through the aligned homography, blurred and sampled back like the frame. The
+    correlation takes the first blur of ``_CAMERA_BLURS_PX``. The misfit is the mean absolute
+    residual of the frame against the view with the blur that fits the outline best (the quiet
+    band and the data area's rim, :data:`_FINE_OUTLINE`: the frame's own blur, measured where
+    every tag looks the same, so that it cannot favour one tag), scaled to the frame's contrast
+    by least squares, over a window of ``_MISFIT_WINDOW`` cells, in units of that contrast: a
+    tag that resembles the one seen fits well overall but leaves a patch where a triangle
+    differs. The quiet misfit is the mean absolute residual over the quiet band around the
+    data area, with the scale and offset fitted inside it: the band must be as bright or dark
+    as the reading's polarity prints it."""
 
     row: int
     view: View
@@ -322,7 +332,7 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
     warp = to_roi(origin) @ to_frame @ _FINE_PX_TO_UNIT
     size = (_FINE_GRID, _FINE_GRID)
     flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
-    seen = cv2.warpPerspective(roi, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    seen = np.asarray(cv2.warpPerspective(roi, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE), np.float32)
     # The tag drawn into the frame through the aligned homography and blurred like a camera
     # image, then sampled back like the frame: at a grazing view each pixel averages a long
     # strip of the data area, which a template blurred in data-area units does not model (the
@@ -330,14 +340,26 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
     drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, to_roi(origin) @ to_frame, (roi.shape[0], roi.shape[1]))
     if view.polarity == "inverted":
         drawn = np.float32(1.0) - drawn
-    drawn = np.asarray(cv2.GaussianBlur(drawn, (0, 0), _CAMERA_BLUR_PX), dtype=np.float32)
-    expected = cv2.warpPerspective(drawn, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    blurred = [
+        np.asarray(
+            cv2.warpPerspective(
+                cv2.GaussianBlur(drawn, (0, 0), sigma), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE
+            ),
+            dtype=np.float32,
+        )
+        for sigma in _CAMERA_BLURS_PX
+    ]
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
     inside = _FINE_INSIDE
-    e_in = np.asarray(expected, dtype=np.float32)[inside, inside]
-    s_in = np.asarray(seen, dtype=np.float32)[inside, inside]
-    pair = normalized_rows(np.stack([e_in.ravel(), s_in.ravel()]))
+    s_in = seen[inside, inside]
+    pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
+    # The misfits with the frame's own blur: against the nominal blur the correct tag's sliver
+    # edges in a blurrier frame misfit like a look-alike's triangle (at 84°, 0.29-0.31 over the
+    # limit of 0.28: normal tags 3 points behind inverted ones, benchmarks/decode_sweeps.py)
+    s_outline = seen[_FINE_OUTLINE]
+    expected = min(blurred, key=lambda e: _contrast_residual(e[_FINE_OUTLINE], s_outline))
+    e_in = expected[inside, inside]
     a_mat = np.stack([e_in.ravel(), np.ones(e_in.size, dtype=np.float32)], axis=1)
     coef = np.linalg.lstsq(a_mat, s_in.ravel(), rcond=None)[0]
     resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
@@ -346,7 +368,14 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
     # the quiet band under the same scale and offset: as bright (normal) or dark (inverted) as
     # the print, where the data area alone can pass for the other polarity's
     band = _FINE_BAND_CELLS
-    seen_band = np.asarray(seen, dtype=np.float32)[band]
-    quiet = np.abs(seen_band - (coef[0] * np.asarray(expected, dtype=np.float32)[band] + coef[1]))
+    quiet = np.abs(seen[band] - (coef[0] * expected[band] + coef[1]))
     quiet_misfit = float(quiet.mean() / max(abs(float(coef[0])), 1e-6))
     return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit)
+
+
+def _contrast_residual(expected: _F32, seen: _F32) -> float:
+    """Mean absolute residual of ``seen`` against ``expected`` scaled and offset by least
+    squares, in units of that scale (the frame's contrast per unit of the drawn tag's)."""
+    a_mat = np.stack([expected, np.ones(expected.size, dtype=np.float32)], axis=1)
+    coef = np.linalg.lstsq(a_mat, seen, rcond=None)[0]
+    return float(np.abs(seen - a_mat @ coef).mean() / max(abs(float(coef[0])), 1e-6))
