@@ -360,8 +360,7 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
     s_outline = seen[_FINE_OUTLINE]
     expected = min(blurred, key=lambda e: _contrast_residual(e[_FINE_OUTLINE], s_outline))
     e_in = expected[inside, inside]
-    a_mat = np.stack([e_in.ravel(), np.ones(e_in.size, dtype=np.float32)], axis=1)
-    coef = np.linalg.lstsq(a_mat, s_in.ravel(), rcond=None)[0]
+    coef = _contrast_fit(e_in.ravel(), s_in.ravel())
     resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
     local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
     misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
@@ -373,9 +372,16 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
     return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit)
 
 
-def _contrast_residual(expected: _F32, seen: _F32) -> float:
-    """Mean absolute residual of ``seen`` against ``expected`` scaled and offset by least
-    squares, in units of that scale (the frame's contrast per unit of the drawn tag's)."""
+def _contrast_fit(expected: _F32, seen: _F32) -> _F32:
+    """Scale and offset (least squares) that take the drawn tag's values ``expected`` to the
+    frame's ``seen`` (both 1-D): the scale is the frame's contrast per unit of the tag's."""
     a_mat = np.stack([expected, np.ones(expected.size, dtype=np.float32)], axis=1)
-    coef = np.linalg.lstsq(a_mat, seen, rcond=None)[0]
-    return float(np.abs(seen - a_mat @ coef).mean() / max(abs(float(coef[0])), 1e-6))
+    coef: _F32 = np.linalg.lstsq(a_mat, seen, rcond=None)[0]
+    return coef
+
+
+def _contrast_residual(expected: _F32, seen: _F32) -> float:
+    """Mean absolute residual of ``seen`` against ``expected`` under :func:`_contrast_fit`, in
+    units of its scale."""
+    scale, offset = _contrast_fit(expected, seen)
+    return float(np.abs(seen - (scale * expected + offset)).mean() / max(abs(float(scale)), 1e-6))
