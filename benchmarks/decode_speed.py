@@ -6,7 +6,9 @@ every core while our decoder's Python work runs on one, and with one OpenCV thre
 Each scene is rendered twice with the same pose, blur, noise, light and JPEG: once with an Order
 Type Tag (k = 8, project layout and placement), once with an ArUco 6×6 marker of the same
 data-area size. Prints ms/frame for both detectors and the ratio (target ≤ 1.0), and our
-decoder's time on the ArUco frames, where no tag is in view (the cost of clutter: markers, text).
+decoder's time on the ArUco frames, where no tag is in view (the cost of clutter: markers, text),
+then where our time goes: ms/frame per decoder stage (``Detector.detect_with_report``, one
+more pass over each set of frames with one OpenCV thread).
 The tags and the decoder's lookup (k = 5 … 8) come from the bundled data, imported with mirrors
 (every order type) into a temporary SQLite file and read back as ``ottag-db`` reads them.
 """
@@ -23,7 +25,7 @@ import cv2
 import numpy as np
 
 from ottag_db.core.lookup import MemoryLookup
-from ottag_db.decode import Detector
+from ottag_db.decode import STAGES, Detector
 from ottag_db.files.bundled import bundled_point_files
 from ottag_db.printing import scenes
 from ottag_db.store.db import open_database
@@ -97,6 +99,15 @@ def make_scenes(frames: int) -> tuple[MemoryLookup, list[np.ndarray], list[np.nd
     return lookup, ours_imgs, aruco_imgs
 
 
+def stage_split(det: Detector, images: Sequence[np.ndarray]) -> dict[str, float]:
+    """ms/frame spent in each decoder stage over ``images`` (one pass, as the detector reports it)."""
+    spent = dict.fromkeys(STAGES, 0.0)
+    for img in images:
+        for stage, seconds in det.detect_with_report(img).timings:
+            spent[stage] += seconds
+    return {stage: seconds / len(images) * 1000 for stage, seconds in spent.items()}
+
+
 def _timed(run: Callable[[], int], frames: int) -> tuple[float, int]:
     """ms/frame of one pass over the frames and the number of frames decoded."""
     t0 = time.perf_counter()
@@ -137,6 +148,8 @@ def main(frames: int = 100, passes: int = 5) -> None:
             ms_m, found_m = _timed(run_ours_on_markers, frames)
             best_o, best_a, best_m = min(best_o, ms_o), min(best_a, ms_a), min(best_m, ms_m)
         results.append((best_o, found_o, best_a, found_a, best_m, found_m))
+    cv2.setNumThreads(1)
+    split_tags, split_markers = stage_split(det, ours_imgs), stage_split(det, aruco_imgs)
     cv2.setNumThreads(threads)
     print(f"frames: {frames} (640×480, data area 90–200 px, tilt ≤ 45°, blur/noise/light/JPEG 80), best of {passes}")
     for n, (ms_o, found_o, ms_a, found_a, ms_m, found_m) in zip(rounds, results, strict=True):
@@ -145,6 +158,9 @@ def main(frames: int = 100, passes: int = 5) -> None:
         print(f"  ArUco: {ms_a:6.2f} ms/frame  decoded {found_a}/{frames}")
         print(f"  ratio ours/ArUco: {ms_o / ms_a:.2f}")
         print(f"  ours on the ArUco frames (no tag): {ms_m:6.2f} ms/frame, {found_m} detections")
+    print("our stages, ms/frame (one OpenCV thread): tag frames / ArUco frames")
+    for stage in STAGES:
+        print(f"  {stage:<13} {split_tags[stage]:6.3f} / {split_markers[stage]:6.3f}")
 
 
 if __name__ == "__main__":
