@@ -6,11 +6,12 @@ of them alike; the best of the rounds is reported with its ratio to the numpy ba
 ``stats`` and ``id`` read a database built first in a temporary folder with
 ``ottag-db import --quiet`` (the bundled data). Target: ``--version`` at most 1.5 × numpy.
 
-The cold start of ``ottag-db decode one.png`` (an 8-point tag drawn by ``ottag-db render``) is measured
-too, beside what a decoder compiled with Numba would add to it (issue 13 allows a compiled
-dependency only if that start grows by at most 0.3 s): ``import numba`` and the first call of a
-kernel compiled with ``@njit(cache=True)`` whose cache a first run (timed on its own: that run
-compiles) has already written. Numba is imported but not used by the decoder.
+The cold start of ``ottag-db decode one.png`` (an 8-point tag drawn by ``ottag-db render``) is
+measured too, beside what a decoder compiled with Numba would add to it (issue 13 allows a
+compiled dependency only if that start grows by at most 0.3 s): ``import numba`` and the first
+call of a kernel compiled with ``@njit(cache=True)`` whose cache a first run (timed on its own:
+that run compiles) has already written. The decoder itself does not use Numba; these rows only
+measure what it would cost.
 
 Usage: python benchmarks/cli_startup.py [--rounds N]
 """
