@@ -20,7 +20,6 @@ import argparse
 import sys
 import tempfile
 import time
-from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 
@@ -32,7 +31,7 @@ from ottag_db.decode import Detector
 from ottag_db.printing import clutter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from decode_speed import bundled_tags  # the benchmark next door
+from decode_speed import bundled_tags, stage_split  # the benchmark next door
 
 
 def _best_ms(run: Callable[[], int], frames: int, passes: int = 2) -> tuple[float, int]:
@@ -65,11 +64,7 @@ def main(frames: int) -> None:
         aruco.detectMarkers(imgs[0])
         ms_o, found = _best_ms(lambda imgs=imgs: sum(len(det.detect(im)) for im in imgs), len(imgs))
         ms_a, _ = _best_ms(lambda imgs=imgs: sum(aruco.detectMarkers(im)[1] is not None for im in imgs), len(imgs))
-        stages: Counter[str] = Counter()
-        for im in imgs:
-            for stage, seconds in det.detect_with_report(im).timings:
-                stages[stage] += seconds
-        spent = ", ".join(f"{s} {v / len(imgs) * 1000:.1f}" for s, v in stages.items() if v / len(imgs) >= 5e-5)
+        spent = ", ".join(f"{s} {ms:.1f}" for s, ms in stage_split(det, imgs).items() if ms >= 0.05)
         print(f"{name:16s} {len(imgs):6d} {ms_o:8.2f} {ms_a:8.2f} {ms_o / ms_a:6.1f}  {found}; {spent}")
 
 
