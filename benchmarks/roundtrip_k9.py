@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ottag_db.app.detector import detector_from_database
+from ottag_db.app.detector import open_detector
 from ottag_db.app.export import TagFilter, export_sheet, select_for_export
 from ottag_db.printing.sheet import SheetOptions
 from ottag_db.store.db import open_database
@@ -90,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             db.close()
         print(f"export: {sheet.tags} tags on {sheet.pages} pages ({sheet.per_page} per page), {sheet.seconds:.1f} s")
-        det = detector_from_database(str(db_path))
+        det = open_detector(str(db_path))
         size_px = sheet.tag_size_mm * args.dpi / 25.4
         decoded = wrong = checked = 0
         excused: list[str] = []

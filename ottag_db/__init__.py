@@ -17,6 +17,7 @@ __version__ = "0.1.0"
 #: Public name → module that defines it. Resolved on first attribute access.
 _EXPORTS: dict[str, str] = {
     # app
+    "open_detector": "ottag_db.app.detector",
     "TagFilter": "ottag_db.app.export",
     "export_sheet": "ottag_db.app.export",
     "render_tag": "ottag_db.app.export",
@@ -200,6 +201,7 @@ __all__ = [
     "maximize_mp",
     "mirror_lambdas",
     "open_database",
+    "open_detector",
     "orientation_tensor",
     "parse_lambda_text",
     "read_point_file",
@@ -245,6 +247,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:
+    from ottag_db.app.detector import open_detector
     from ottag_db.app.export import TagFilter, export_sheet, render_tag
     from ottag_db.app.generating import generate_database
     from ottag_db.core.canonical import (

@@ -14,13 +14,14 @@ from pathlib import Path
 from typing import Any
 
 from ottag_db.app.decoding import Camera, annotate_detections, decode_array, decode_file, load_camera
+from ottag_db.app.detector import open_detector
 from ottag_db.app.dictionary_io import load_dictionary_file
 from ottag_db.app.video import VIDEO_SUFFIXES, WRITER_SUFFIXES, VideoWriter, input_kind, read_frames
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.errors import DecodeError, UsageError
 from ottag_db.printing.sheet import parse_length
 from ottag_db.store.db import Database
-from ottag_db.store.lookups import dictionary_lookup, neighbour_members
+from ottag_db.store.lookups import neighbour_members
 from ottag_db.store.queries import order_type_numbers
 
 __all__ = [
@@ -131,7 +132,7 @@ def prepare_decoding(db: Database, dictionary: str | None = None, *, verify: boo
     DecodeSetup
         The detector, universal numbers and (with a dictionary) its one-flip neighbours.
     """
-    detector = Detector(dictionary_lookup(db, dictionary), DetectorParams(verify=verify))
+    detector = open_detector(db, dictionary=dictionary, params=DetectorParams(verify=verify))
     numbers = order_type_numbers(db)
     near = neighbour_members(db, dictionary) if dictionary else {}
     return DecodeSetup(detector=detector, numbers=numbers, near=near, dictionary=dictionary)
@@ -162,7 +163,7 @@ def prepare_file_decoding(path: Path, *, verify: bool = True) -> DecodeSetup:
         The file cannot be read or a tag is bad (the message names it).
     """
     doc = load_dictionary_file(path)
-    detector = Detector(doc.lookup(), DetectorParams(verify=verify))
+    detector = open_detector(dictionary_file=doc, params=DetectorParams(verify=verify))
     return DecodeSetup(detector=detector, numbers=doc.universal_numbers(), near={}, dictionary=doc.name)
 
 

@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from ottag_db.app.decoding import load_camera
-from ottag_db.app.detector import detector_from_database
+from ottag_db.app.detector import open_detector
 from ottag_db.cli import cli
 from ottag_db.errors import UsageError
 from tests.support.paper import TABLE9
@@ -99,8 +99,8 @@ def test_decode_bad_inputs(runner: CliRunner, dbfile: Path, fig4_png: Path, tmp_
     assert "4 of 7 file(s) could not be read" in res.stderr
 
 
-def test_detector_from_database_and_camera_files(dbfile: Path, fig4_png: Path, tmp_path: Path) -> None:
-    det = detector_from_database(str(dbfile))
+def test_open_detector_and_camera_files(dbfile: Path, fig4_png: Path, tmp_path: Path) -> None:
+    det = open_detector(str(dbfile))
     found = det.detect(cv2.imread(str(fig4_png)))
     assert [d.lambda_text for d in found] == [TABLE9_TEXT]
     assert found[0].model_points is not None

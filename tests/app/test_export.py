@@ -274,7 +274,7 @@ def test_readme_export_packs_twelve_tags_per_a4_page(db_copy: Path, tmp_path: Pa
     either polarity."""
     from click.testing import CliRunner
 
-    from ottag_db.app.detector import detector_from_database
+    from ottag_db.app.detector import open_detector
     from ottag_db.cli import cli
 
     flt = TagFilter(ks=(8,), min_mp=10.0)
@@ -291,7 +291,7 @@ def test_readme_export_packs_twelve_tags_per_a4_page(db_copy: Path, tmp_path: Pa
     pages = -(-len(expected) // 12)
     assert f"{len(expected)} tags on {pages} page(s), 12 per page (3×4, shared quiet zones)" in res.stdout
     assert len(PdfReader(out).pages) == pages
-    det = detector_from_database(str(db_copy))
+    det = open_detector(str(db_copy))
     assert _decode_page(out, 0, det, 150) == [(lam, "normal") for lam in expected[:12]]
     last = (pages - 1) * 12
     assert _decode_page(out, pages - 1, det, 150) == [(lam, "normal") for lam in expected[last:]]

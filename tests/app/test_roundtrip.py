@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ottag_db.app.detector import detector_from_database
+from ottag_db.app.detector import open_detector
 from ottag_db.app.export import TagFilter, export_sheet, select_for_export
 from ottag_db.decode import Detection
 from ottag_db.printing.sheet import SheetOptions
@@ -70,7 +70,7 @@ def sheet(bundled_db_path: Path, tmp_path_factory: pytest.TempPathFactory):
 @pytest.mark.parametrize("dpi", DPIS)
 def test_sheet_round_trip(sheet, bundled_db_path: Path, dpi: int, capsys) -> None:
     pdf, report, cells = sheet
-    det = detector_from_database(str(bundled_db_path))
+    det = open_detector(str(bundled_db_path))
     px_per_mm = dpi / 25.4
     size_px = report.tag_size_mm * px_per_mm
     doc = pdfium.PdfDocument(str(pdf))

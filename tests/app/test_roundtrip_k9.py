@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ottag_db.app.detector import detector_from_database
+from ottag_db.app.detector import open_detector
 from ottag_db.app.export import TagFilter, export_sheet, render_tag, select_for_export
 from ottag_db.core.canonical import canonical_batch
 from ottag_db.core.layout import validate_layout
@@ -75,7 +75,7 @@ def test_nine_point_sheet_decodes_every_tag(k9_db: tuple[Path, list[str]], tmp_p
     finally:
         db.close()
     assert report.tags == 20 and sorted(expected) == sorted(texts)
-    det = detector_from_database(str(path))
+    det = open_detector(str(path))
     doc = pdfium.PdfDocument(str(pdf))
     try:
         assert len(doc) == report.pages
@@ -106,7 +106,7 @@ def test_nine_point_tag_renders(k9_db: tuple[Path, list[str]], tmp_path: Path) -
 
     img = cv2.imread(str(out), cv2.IMREAD_GRAYSCALE)
     assert img is not None
-    found = detector_from_database(str(path)).detect(img)
+    found = open_detector(str(path)).detect(img)
     assert [(d.lambda_text, d.polarity) for d in found] == [(texts[0], "inverted")]
 
 
@@ -139,5 +139,5 @@ def test_tips_of_two_triangles_are_not_read_as_one_shared_point(bundled_db_path:
     finally:
         doc.close()
     image = image[:, :, 0] if image.ndim == 3 else image
-    detections = detector_from_database(str(path)).detect(np.ascontiguousarray(image))
+    detections = open_detector(str(path)).detect(np.ascontiguousarray(image))
     assert [d.lambda_text for d in detections] == [MERGED_TIPS_ID]
