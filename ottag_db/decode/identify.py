@@ -113,7 +113,9 @@ def identify(
     if isinstance(member, Rejection):
         return member
     required = lam in print_required
-    printed_only = member.layouts and (required or shows_print(quad, p))
+    # Without verification the order type alone decides (the paper's rule): a tag drawn with
+    # other triangles or margins reads at any view, so the print is never required.
+    printed_only = p.verify and member.layouts and (required or shows_print(quad, p))
     if printed_only:
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is None:
@@ -133,6 +135,7 @@ def identify(
     result = checked.result
     if (
         isinstance(result, Detection)
+        and p.verify
         and member.layouts
         and not printed_only
         and result.reprojection_error_px is not None

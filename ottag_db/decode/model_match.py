@@ -172,7 +172,7 @@ def confirm_by_model(
     bank : TemplateBank
         The lookup's printed tags.
     params : DetectorParams
-        ``model_match`` (False: no check), ``print_check_side_px`` (data areas with a side
+        ``model_match`` and ``verify`` (either False: no check), ``print_check_side_px`` (data areas with a side
         ``√area`` under it are checked), the reprojection bound and the ``model_*`` limits.
     clock : StageClock
         Charged as ``"model"``.
@@ -186,6 +186,7 @@ def confirm_by_model(
     soft = reading.corrected_flips is not None
     if (
         not params.model_match
+        or not params.verify  # the order type alone decides: nothing to dispute
         or reading.model_correlation is not None
         or math.sqrt(quad.area) >= params.print_check_side_px
         or (not soft and points_fit(reading, quad, params))
