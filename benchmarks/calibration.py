@@ -1,6 +1,6 @@
 """Calibration accuracy: an Order Type Tag board against an OpenCV ChArUco board on the same views.
 
-Usage: python benchmarks/calibration.py [views] [seed]
+Usage: python benchmarks/calibration.py [views] [seed] [--plot PATH]
 
 A 4 × 3 board of 40 mm k = 8 tags (10 mm spacing, A4) is made with ``board create`` from the
 bundled data, rasterized from its own PDF (pypdfium2) and photographed by a known camera
@@ -13,7 +13,8 @@ the same size (7 × 9 squares of 20 mm, 15 mm DICT_5X5_100 markers: 140 × 180 m
 photographed at the same poses with the same degradations.
 Ours: ``ottag_db.app.calibration.calibrate_board``; ChArUco: ``cv2.aruco.CharucoDetector`` +
 ``cv2.calibrateCamera`` with the same model (k1, k2, p1, p2). Both results and their errors
-against the true camera are printed side by side.
+against the true camera are printed side by side; ``--plot PATH`` writes the errors of fx, fy,
+cx, cy and the RMS as bars (PNG, matplotlib).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pypdfium2 as pdfium
+from peers import plot_bars  # the benchmarks' plots
 
 from ottag_db.app.boards import create_board, read_board
 from ottag_db.app.calibration import calibrate_board
@@ -60,6 +62,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("views", nargs="?", type=int, default=20)
     parser.add_argument("seed", nargs="?", type=int, default=0)
+    parser.add_argument("--plot", default=None, metavar="PATH", help="write the errors as bars (PNG, matplotlib)")
     args = parser.parse_args()
     if args.views < 4:
         parser.error("views must be at least 4")
@@ -127,6 +130,18 @@ def main() -> None:
     err_ours = max(abs(ours.fx - 1000) / 10, abs(ours.fy - 1000) / 10, abs(ours.cx - 659.5), abs(ours.cy - 499.5))
     err_c = max(abs(c_k[0, 0] - 1000) / 10, abs(c_k[1, 1] - 1000) / 10, abs(c_k[0, 2] - 659.5), abs(c_k[1, 2] - 499.5))
     print(f"largest intrinsics error (focal in 0.1 % units, centre in px): ours {err_ours:.3f}, ChArUco {err_c:.3f}")
+    if args.plot:
+        groups = {
+            name.split()[0]: {"Order Type Tag board": abs(a - true), "ChArUco": abs(b - true)}
+            for name, true, a, b in rows[:4]
+        }
+        groups["RMS"] = {"Order Type Tag board": ours.rms_px, "ChArUco": c_rms}
+        plot_bars(
+            args.plot,
+            f"calibration: |error| against the true camera ({args.views} views, seed {args.seed})",
+            "px",
+            groups,
+        )
 
 
 if __name__ == "__main__":

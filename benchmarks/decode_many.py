@@ -1,15 +1,17 @@
-"""Many tags per frame: 20 Order Type Tags of a D = 2 dictionary vs 20 ArUco markers, one board.
+"""Many tags per frame: 20 Order Type Tags of a D = 2 dictionary vs 20 ArUco and 20 AprilTag markers, one board.
 
-Usage: python benchmarks/decode_many.py [frames] [cv2_threads]
+Usage: python benchmarks/decode_many.py [frames] [cv2_threads] [--plot PATH]
 
 Each frame (1280×960, f = 1400 px) shows a board of 5 × 4 cells seen under a random
 perspective (tilt 0–40° about a random axis, any roll): once with 20 Order Type Tags (k = 8, the
 20 of highest MP whose pairwise flip distance is at least 2, i.e. no two differ in a single
-triple orientation), once with 20 ArUco 6×6 markers (ids 0–19) whose black squares cover exactly
-the same data areas; the same blur, noise, light gradient and JPEG 80. The decoder looks up every
+triple orientation), once each with 20 ArUco 6×6 and 20 AprilTag 36h11 markers (ids 0–19,
+``peers.py``) whose black squares cover exactly the same data areas; the same blur, noise, light
+gradient and JPEG 80. The decoder looks up every
 order type of k = 5 … 8 (mirrors included), so a misread could land on any of them.
 Prints per frame the tags decoded (target 20/20) and the wrong IDs (must be 0), then ms/frame of
-both detectors (best of several interleaved passes) with OpenCV's default thread count and with one.
+the detectors (best of several interleaved passes) with OpenCV's default thread count and with one
+(AprilTag 3: one thread, its default). ``--plot PATH`` writes the times as bars (PNG, matplotlib).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from ottag_db.printing.camera import camera_matrix, project
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decode_speed import bundled_tags, drawable  # the benchmark next door
+from peers import PEERS, PeerReader, aruco_dictionary, plot_bars
 
 #: Board of COLS × ROWS cells; a cell is PITCH data-area sides wide (quiet zone 0.25 on each
 #: side of the data area, 0.1 between neighbouring quiet zones).
@@ -120,10 +123,10 @@ def cell_homography(board: NDArray[np.float64], index: int) -> NDArray[np.float6
     return out
 
 
-def aruco_board() -> NDArray[np.uint8]:
-    """The ArUco board as one grey patch: background 200, each marker (ids 0–19) on a white
+def marker_board(peer: str) -> NDArray[np.uint8]:
+    """A peer's board as one grey patch: background 200, each marker (ids 0–19) on a white
     square of 1.5 data-area sides, its black square exactly the cell's data area."""
-    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
+    dictionary = aruco_dictionary(peer)
     px = PATCH_PX
     patch = np.full((round(ROWS * PITCH * px), round(COLS * PITCH * px)), 200, dtype=np.uint8)
     for i in range(N_TAGS):
@@ -140,16 +143,16 @@ def aruco_board() -> NDArray[np.uint8]:
 
 def make_frames(
     frames: int, seed: int = 13
-) -> tuple[MemoryLookup, list[scenes.Scene], list[NDArray[np.uint8]], list[scenes.DrawableTag]]:
-    """Lookup, the Order Type Tag scenes, the paired ArUco frames and the dictionary drawn."""
+) -> tuple[MemoryLookup, list[scenes.Scene], dict[str, list[NDArray[np.uint8]]], list[scenes.DrawableTag]]:
+    """Lookup, the Order Type Tag scenes, each peer's frames of the same boards and the dictionary drawn."""
     with tempfile.TemporaryDirectory() as tmp:
         lookup, records = bundled_tags(Path(tmp))
     members = pick_dictionary([drawable(t) for t in records if t.k == 8], N_TAGS)
-    patch = aruco_board()
+    patches = {peer: marker_board(peer) for peer in PEERS}
     bw, bh = COLS * PITCH, ROWS * PITCH
     rng = np.random.default_rng(seed)
     ours: list[scenes.Scene] = []
-    aruco: list[NDArray[np.uint8]] = []
+    peer_frames: dict[str, list[NDArray[np.uint8]]] = {peer: [] for peer in PEERS}
     for _ in range(frames):
         board = board_homography(rng)
         order = rng.permutation(N_TAGS)  # which member sits in which cell
@@ -164,10 +167,11 @@ def make_frames(
         seed_f = int(rng.integers(1 << 30))
         ours.append(scenes.render_scene(SHAPE, specs, np.random.default_rng(seed_f), **cond))
         patch_h = board @ np.diag([bw, bh, 1.0])
-        aruco.append(
-            scenes.render_scene(SHAPE, [], np.random.default_rng(seed_f), extra=[(patch, patch_h)], **cond).image
-        )
-    return lookup, ours, aruco, members
+        for peer, patch in patches.items():
+            peer_frames[peer].append(
+                scenes.render_scene(SHAPE, [], np.random.default_rng(seed_f), extra=[(patch, patch_h)], **cond).image
+            )
+    return lookup, ours, peer_frames, members
 
 
 def score(scene: scenes.Scene, dets: Sequence[Detection]) -> tuple[int, int]:
@@ -194,34 +198,35 @@ def _timed(run: Callable[[], int], frames: int) -> float:
     return (time.perf_counter() - t0) / frames * 1000
 
 
-def main(frames: int = 4, passes: int = 3) -> None:
-    lookup, ours, aruco_imgs, members = make_frames(frames)
+def main(frames: int = 4, passes: int = 3, plot: str | None = None) -> None:
+    lookup, ours, peer_frames, members = make_frames(frames)
     det = Detector(lookup)
-    aruco = cv2.aruco.ArucoDetector(
-        cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250), cv2.aruco.DetectorParameters()
-    )
+    reader = PeerReader()
     mps = [m.printed_mp_unit for m in members]
     print(
         f"frames: {frames} (1280×960, f = {FOCAL:.0f} px, board {COLS}×{ROWS}, tilt ≤ 40°, blur/noise/light/JPEG 80); "
         f"{N_TAGS} k = 8 tags, pairwise flip distance ≥ 2, printed MP {min(mps):.4f}–{max(mps):.4f} of the side"
     )
-    total_right = total_wrong = total_aruco = 0
-    for f, (scene, img) in enumerate(zip(ours, aruco_imgs, strict=True)):
+    total_right = total_wrong = 0
+    total_peers = dict.fromkeys(PEERS, 0)
+    for f, scene in enumerate(ours):
         dets = det.detect(scene.image)
         right, wrong = score(scene, dets)
-        ids = aruco.detectMarkers(img)[1]
-        found_a = 0 if ids is None else len(set(ids.ravel().tolist()) & set(range(N_TAGS)))
+        found = {peer: len(reader.ids(peer, peer_frames[peer][f]) & set(range(N_TAGS))) for peer in PEERS}
         sides = [math.sqrt(abs(cv2.contourArea(project(s.homography, _UNIT).astype(np.float32)))) for s in scene.tags]
         print(
-            f"frame {f}: ours {right}/{N_TAGS} decoded, {wrong} wrong IDs; ArUco {found_a}/{N_TAGS}; "
+            f"frame {f}: ours {right}/{N_TAGS} decoded, {wrong} wrong IDs; "
+            + "; ".join(f"{peer} {n}/{N_TAGS}" for peer, n in found.items())
+            + "; "
             f"data-area side {min(sides):.0f}–{max(sides):.0f} px"
         )
         total_right += right
         total_wrong += wrong
-        total_aruco += found_a
+        for peer in PEERS:
+            total_peers[peer] += found[peer]
     print(
         f"all frames: ours {total_right}/{N_TAGS * frames}, wrong IDs {total_wrong}; "
-        f"ArUco {total_aruco}/{N_TAGS * frames}"
+        + "; ".join(f"{peer} {n}/{N_TAGS * frames}" for peer, n in total_peers.items())
     )
 
     imgs = [s.image for s in ours]
@@ -229,32 +234,39 @@ def main(frames: int = 4, passes: int = 3) -> None:
     def run_ours() -> int:
         return sum(len(det.detect(im)) for im in imgs)
 
-    def run_aruco() -> int:
-        return sum(0 if (ids := aruco.detectMarkers(im)[1]) is None else len(ids) for im in aruco_imgs)
+    def run_peer(peer: str) -> Callable[[], int]:
+        return lambda: sum(len(reader.ids(peer, im)) for im in peer_frames[peer])
 
-    run_ours()
-    run_aruco()
+    runs: dict[str, Callable[[], int]] = {"Order Type Tag": run_ours, **{peer: run_peer(peer) for peer in PEERS}}
+    for run in runs.values():
+        run()
     threads = cv2.getNumThreads()
+    times: dict[str, dict[str, float]] = {}
     for n in (threads, 1) if threads > 1 else (threads,):
         cv2.setNumThreads(n)
-        best_o = best_a = math.inf
+        best = dict.fromkeys(runs, math.inf)
         for _ in range(passes):  # interleaved, best of several: other processes share the cores
-            best_o = min(best_o, _timed(run_ours, frames))
-            best_a = min(best_a, _timed(run_aruco, frames))
+            for name, run in runs.items():
+                best[name] = min(best[name], _timed(run, frames))
+        times[f"OpenCV threads: {n}"] = best
         print(f"OpenCV threads: {n}")
-        print(f"  ours : {best_o:7.2f} ms/frame")
-        print(f"  ArUco: {best_a:7.2f} ms/frame")
-        print(f"  ratio ours/ArUco: {best_o / best_a:.2f}")
+        for name, ms in best.items():
+            print(f"  {name:<15}: {ms:7.2f} ms/frame")
+        ours_ms = best["Order Type Tag"]
+        print("  ratio " + ", ".join(f"ours/{peer}: {ours_ms / best[peer]:.2f}" for peer in PEERS))
     cv2.setNumThreads(threads)
+    if plot:
+        plot_bars(plot, f"time per 1280×960 frame with {N_TAGS} tags or markers", "ms / frame", times)
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("frames", type=int, nargs="?", default=4, help="frames (default 4)")
     parser.add_argument("cv2_threads", type=int, nargs="?", default=None, help="OpenCV's default thread count")
+    parser.add_argument("--plot", default=None, metavar="PATH", help="write the times as bars (PNG, matplotlib)")
     args = parser.parse_args()
     if args.frames < 1:
         parser.error("frames must be at least 1")
     if args.cv2_threads is not None:
         cv2.setNumThreads(args.cv2_threads)
-    main(args.frames)
+    main(args.frames, plot=args.plot)

@@ -1,14 +1,16 @@
-"""Decode speed: Order Type Tag decoder vs cv2.aruco.ArucoDetector on the same 640×480 scenes.
+"""Decode speed: Order Type Tag decoder vs ArUco (cv2.aruco) and AprilTag 3 on the same 640×480 scenes.
 
-Usage: python benchmarks/decode_speed.py [frames] [cv2_threads]
+Usage: python benchmarks/decode_speed.py [frames] [cv2_threads] [--plot PATH]
 Runs twice: with OpenCV's default thread count (``cv2_threads`` if given), where ArUco may use
 every core while our decoder's Python work runs on one, and with one OpenCV thread.
-Each scene is rendered twice with the same pose, blur, noise, light and JPEG: once with an Order
-Type Tag (k = 8, project layout and placement), once with an ArUco 6×6 marker of the same
-data-area size. Prints ms/frame for both detectors and the ratio (target ≤ 1.0), and our
+Each scene is rendered three times with the same pose, blur, noise, light and JPEG: once with an
+Order Type Tag (k = 8, project layout and placement), once each with an ArUco 6×6 and an AprilTag
+36h11 marker of the same data-area size (``peers.py``; AprilTag 3 with its defaults, one thread
+whatever OpenCV's count). Prints ms/frame for the detectors and the ratios (target ≤ 1.0), and our
 decoder's time on the ArUco frames, where no tag is in view (the cost of clutter: markers, text),
 then where our time goes: ms/frame per decoder stage (``Detector.detect_with_report``, one
-more pass over each set of frames with one OpenCV thread).
+more pass over each set of frames with one OpenCV thread). ``--plot PATH`` writes the times as
+bars (PNG, matplotlib).
 The tags and the decoder's lookup (k = 5 … 8) come from the bundled data, imported with mirrors
 (every order type) into a temporary SQLite file and read back as ``ottag-db`` reads them.
 """
@@ -23,6 +25,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from peers import MARKER_ID, PATCH_TO_DATA_AREA, PEERS, PeerReader, marker_patch, plot_bars
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import STAGES, Detector
@@ -70,17 +73,15 @@ def drawable(tag: TagRecord) -> scenes.DrawableTag:
     )
 
 
-def make_scenes(frames: int) -> tuple[MemoryLookup, list[np.ndarray], list[np.ndarray]]:
-    """Lookup and the paired frames (Order Type Tag, ArUco marker) of the benchmark."""
+def make_scenes(frames: int) -> tuple[MemoryLookup, list[np.ndarray], dict[str, list[np.ndarray]]]:
+    """Lookup, the Order Type Tag frames and each peer's frames of the same scenes."""
     with tempfile.TemporaryDirectory() as tmp:
         lookup, records = bundled_tags(Path(tmp))
     tags = [drawable(t) for t in records if t.k == 8]
     rng = np.random.default_rng(7)
-    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
-    marker = cv2.aruco.generateImageMarker(dictionary, 5, 400)
-    marker = cv2.copyMakeBorder(marker, 100, 100, 100, 100, cv2.BORDER_CONSTANT, value=255)
+    markers = {peer: marker_patch(peer) for peer in PEERS}
     ours_imgs: list[np.ndarray] = []
-    aruco_imgs: list[np.ndarray] = []
+    peer_imgs: dict[str, list[np.ndarray]] = {peer: [] for peer in PEERS}
     while len(ours_imgs) < frames:
         tag = tags[int(rng.integers(len(tags)))]
         w_min = scenes.min_width_px(tag.printed_mp_unit)
@@ -91,12 +92,12 @@ def make_scenes(frames: int) -> tuple[MemoryLookup, list[np.ndarray], list[np.nd
         cond = {"blur": rng.uniform(0, 1), "noise": rng.uniform(0, 4), "gradient": rng.uniform(0, 0.4), "jpeg": 80}
         seed = int(rng.integers(1 << 30))
         ours_imgs.append(scenes.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image)
-        # The marker patch has a white border of 1/4 of the marker's side on each side.
-        hom_m = spec.homography @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
-        aruco_imgs.append(
-            scenes.render_scene((480, 640), [], np.random.default_rng(seed), extra=[(marker, hom_m)], **cond).image
-        )
-    return lookup, ours_imgs, aruco_imgs
+        hom_m = spec.homography @ PATCH_TO_DATA_AREA
+        for peer, marker in markers.items():
+            peer_imgs[peer].append(
+                scenes.render_scene((480, 640), [], np.random.default_rng(seed), extra=[(marker, hom_m)], **cond).image
+            )
+    return lookup, ours_imgs, peer_imgs
 
 
 def stage_split(det: Detector, images: Sequence[np.ndarray]) -> dict[str, float]:
@@ -115,61 +116,79 @@ def _timed(run: Callable[[], int], frames: int) -> tuple[float, int]:
     return (time.perf_counter() - t0) / frames * 1000, found
 
 
-def main(frames: int = 100, passes: int = 5) -> None:
-    lookup, ours_imgs, aruco_imgs = make_scenes(frames)
-    dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
+def main(frames: int = 100, passes: int = 5, plot: str | None = None) -> None:
+    lookup, ours_imgs, peer_imgs = make_scenes(frames)
+    aruco_imgs, april_imgs = peer_imgs[PEERS[0]], peer_imgs[PEERS[1]]
     det = Detector(lookup)
-    aruco = cv2.aruco.ArucoDetector(dictionary, cv2.aruco.DetectorParameters())
+    reader = PeerReader()
     for img in ours_imgs[:5]:
         det.detect(img)
-    for img in aruco_imgs[:5]:
-        aruco.detectMarkers(img)
+    for peer in PEERS:
+        for img in peer_imgs[peer][:5]:
+            reader.ids(peer, img)
 
     def run_ours() -> int:
         return sum(len(det.detect(img)) > 0 for img in ours_imgs)
 
     def run_aruco() -> int:
-        return sum(aruco.detectMarkers(img)[1] is not None for img in aruco_imgs)
+        return sum(MARKER_ID in reader.ids(PEERS[0], img) for img in aruco_imgs)
+
+    def run_april() -> int:
+        return sum(MARKER_ID in reader.ids(PEERS[1], img) for img in april_imgs)
 
     def run_ours_on_markers() -> int:  # frames without a tag: what clutter costs
         return sum(len(det.detect(img)) for img in aruco_imgs)
 
     threads = cv2.getNumThreads()
-    results: list[tuple[float, int, float, int, float, int]] = []
+    results: list[tuple[float, int, float, int, float, int, float, int]] = []
     rounds = (threads, 1) if threads > 1 else (threads,)
     for n in rounds:
         cv2.setNumThreads(n)
         # interleaved rounds: both detectors see the same load on the machine
-        best_o = best_a = best_m = float("inf")
-        found_o = found_a = found_m = 0
+        best_o = best_a = best_t = best_m = float("inf")
+        found_o = found_a = found_t = found_m = 0
         for _ in range(passes):  # best of several passes: other processes share the cores
             ms_o, found_o = _timed(run_ours, frames)
             ms_a, found_a = _timed(run_aruco, frames)
+            ms_t, found_t = _timed(run_april, frames)
             ms_m, found_m = _timed(run_ours_on_markers, frames)
             best_o, best_a, best_m = min(best_o, ms_o), min(best_a, ms_a), min(best_m, ms_m)
-        results.append((best_o, found_o, best_a, found_a, best_m, found_m))
+            best_t = min(best_t, ms_t)
+        results.append((best_o, found_o, best_a, found_a, best_t, found_t, best_m, found_m))
     cv2.setNumThreads(1)
     split_tags, split_markers = stage_split(det, ours_imgs), stage_split(det, aruco_imgs)
     cv2.setNumThreads(threads)
     print(f"frames: {frames} (640×480, data area 90–200 px, tilt ≤ 45°, blur/noise/light/JPEG 80), best of {passes}")
-    for n, (ms_o, found_o, ms_a, found_a, ms_m, found_m) in zip(rounds, results, strict=True):
+    for n, (ms_o, found_o, ms_a, found_a, ms_t, found_t, ms_m, found_m) in zip(rounds, results, strict=True):
         print(f"OpenCV threads: {n}")
-        print(f"  ours : {ms_o:6.2f} ms/frame  decoded {found_o}/{frames}")
-        print(f"  ArUco: {ms_a:6.2f} ms/frame  decoded {found_a}/{frames}")
-        print(f"  ratio ours/ArUco: {ms_o / ms_a:.2f}")
+        print(f"  ours    : {ms_o:6.2f} ms/frame  decoded {found_o}/{frames}")
+        print(f"  ArUco   : {ms_a:6.2f} ms/frame  decoded {found_a}/{frames}")
+        print(f"  AprilTag: {ms_t:6.2f} ms/frame  decoded {found_t}/{frames}")
+        print(f"  ratio ours/ArUco: {ms_o / ms_a:.2f}, ours/AprilTag: {ms_o / ms_t:.2f}")
         print(f"  ours on the ArUco frames (no tag): {ms_m:6.2f} ms/frame, {found_m} detections")
     print("our stages, ms/frame (one OpenCV thread): tag frames / ArUco frames")
     for stage in STAGES:
         print(f"  {stage:<13} {split_tags[stage]:6.3f} / {split_markers[stage]:6.3f}")
+    if plot:
+        plot_bars(
+            plot,
+            f"time per 640×480 frame, one tag or marker ({frames} frames, best of {passes})",
+            "ms / frame",
+            {
+                f"OpenCV threads: {n}": {"Order Type Tag": r[0], PEERS[0]: r[2], PEERS[1]: r[4]}
+                for n, r in zip(rounds, results, strict=True)
+            },
+        )
 
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("frames", type=int, nargs="?", default=100, help="scenes per detector (default 100)")
     parser.add_argument("cv2_threads", type=int, nargs="?", default=None, help="OpenCV's default thread count")
+    parser.add_argument("--plot", default=None, metavar="PATH", help="write the times as bars (PNG, matplotlib)")
     args = parser.parse_args()
     if args.frames < 1:
         parser.error("frames must be at least 1")
     if args.cv2_threads is not None:
         cv2.setNumThreads(args.cv2_threads)
-    main(args.frames)
+    main(args.frames, plot=args.plot)

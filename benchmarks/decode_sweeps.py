@@ -1,14 +1,15 @@
-"""Decode rate against tilt and distance: Order Type Tags beside ArUco 6×6, printed and plotted.
+"""Decode rate against tilt and distance: Order Type Tags beside ArUco 6×6 and AprilTag 3, printed and plotted.
 
-Usage: python benchmarks/decode_sweeps.py [--trials N] [--out sweeps.png] [--compare] [--seed S] [--paired]
+Usage: python benchmarks/decode_sweeps.py [--trials N] [--plot sweeps.png] [--compare] [--seed S] [--paired]
 A 21 cm data area seen by a 640×480 camera with f = 700 px: a tilt sweep at 1.5 m (0 … 89°) and a
 distance sweep (0.5 … 8 m, tilt 0–30°), each for normal and inverted tags. Each condition renders
 ``N`` scenes (random in-plane rotation, tilt axis, position near the centre, blur σ ≤ 0.8 px,
-noise σ ≤ 3, gradient ≤ 0.3, JPEG 85) twice with the same pose and degradations: with an Order
-Type Tag (the 24 bundled k = 8 tags of largest MP with their stored layout and placement, as
+noise σ ≤ 3, gradient ≤ 0.3, JPEG 85) three times with the same pose and degradations: with an
+Order Type Tag (the 24 bundled k = 8 tags of largest MP with their stored layout and placement, as
 ``ottag-db export`` draws them, read from the bundled data imported into a temporary SQLite file
-as in ``decode_speed.py``) and with an ArUco DICT_6X6_250 marker of the same size (inverted: the
-marker's tones swapped, read with ``detectInvertedMarker``). A detection of another ID counts as
+as in ``decode_speed.py``), with an ArUco DICT_6X6_250 marker and with an AprilTag 36h11 marker of
+the same size (``peers.py``: default detectors; inverted: the marker's tones swapped, ArUco with
+``detectInvertedMarker``, AprilTag 3 has no inverted mode). A detection of another ID counts as
 wrong (printed; must stay 0). ``--compare`` also runs our decoder without the rectified retry
 (``DetectorParams(rectify=False)``) on the same frames: the column ``direct``, its wrong IDs in
 parentheses. For our failures
@@ -16,8 +17,8 @@ the most frequent rejection reason of each row is printed. ``--paired`` renders 
 scenes (tag, pose, degradations) in both polarities, so the normal/inverted gap of a row measures
 the decoder and not the draw of the poses: with independent draws, one trial of 30 is 3.3 points
 and the gap of two independent rates near 0.5 has a standard deviation of 13 points. Without it each
-polarity draws its own scenes (the frames of earlier runs). The plot is drawn with OpenCV
-(matplotlib is not a dependency).
+polarity draws its own scenes (the frames of earlier runs). ``--plot PATH`` writes the rates of
+both sweeps as a PNG (matplotlib).
 """
 
 from __future__ import annotations
@@ -25,14 +26,12 @@ from __future__ import annotations
 import argparse
 import tempfile
 from collections import Counter
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 from decode_speed import bundled_tags, drawable  # the benchmark next to this one
-from numpy.typing import NDArray
+from peers import MARKER_ID, PATCH_TO_DATA_AREA, PEERS, PeerReader, marker_patch, plot_lines
 
 from ottag_db.core.types import Polarity
 from ottag_db.decode import Detector, DetectorParams
@@ -52,7 +51,7 @@ class Row:
     trials: int = 0
     ours: int = 0
     direct: int = 0
-    aruco: int = 0
+    peers: Counter[str] = field(default_factory=Counter)
     wrong: int = 0
     wrong_direct: int = 0
     reasons: Counter[str] = field(default_factory=Counter)
@@ -71,17 +70,8 @@ class Sweep:
         self.recs = [drawable(r) for r in k8[:24]]
         self.det = Detector(lookup)
         self.direct = Detector(lookup, DetectorParams(rectify=False)) if compare else None
-        dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
-        self.aruco = cv2.aruco.ArucoDetector(dictionary, cv2.aruco.DetectorParameters())
-        inv = cv2.aruco.DetectorParameters()
-        inv.detectInvertedMarker = True
-        self.aruco_inv = cv2.aruco.ArucoDetector(dictionary, inv)
-        self.marker: NDArray[np.uint8] = np.asarray(
-            cv2.copyMakeBorder(
-                cv2.aruco.generateImageMarker(dictionary, 5, 400), 100, 100, 100, 100, cv2.BORDER_CONSTANT, value=255
-            ),
-            np.uint8,
-        )
+        self.peers = PeerReader()
+        self.markers = {peer: marker_patch(peer) for peer in PEERS}
         self.k_mat = scenes.camera_matrix(F, 640, 480)
 
     def run(
@@ -112,20 +102,19 @@ class Sweep:
                 read = [d.lambda_text for d in self.direct.detect(img)]
                 row.direct += rec.lambda_text in read
                 row.wrong_direct += sum(x != rec.lambda_text for x in read)
-            hom_m = hom @ np.array([[1.5, 0, -0.25], [0, 1.5, -0.25], [0, 0, 1.0]])
-            marker = self.marker if pol == "normal" else np.asarray(255 - self.marker, np.uint8)
-            img_a = scenes.render_scene(
-                (480, 640),
-                [],
-                np.random.default_rng(seed),
-                blur=blur,
-                noise=noise,
-                gradient=gradient,
-                jpeg=85,
-                extra=[(marker, hom_m)],
-            ).image
-            _, ids, _ = (self.aruco if pol == "normal" else self.aruco_inv).detectMarkers(img_a)
-            row.aruco += ids is not None and 5 in ids.ravel().tolist()
+            for peer, patch in self.markers.items():
+                marker = patch if pol == "normal" else np.asarray(255 - patch, np.uint8)
+                img_m = scenes.render_scene(
+                    (480, 640),
+                    [],
+                    np.random.default_rng(seed),
+                    blur=blur,
+                    noise=noise,
+                    gradient=gradient,
+                    jpeg=85,
+                    extra=[(marker, hom @ PATCH_TO_DATA_AREA)],
+                ).image
+                row.peers[peer] += MARKER_ID in self.peers.ids(peer, img_m, inverted=pol == "inverted")
         return row
 
 
@@ -136,7 +125,7 @@ def _print_row(label: str, rows: dict[Polarity, Row], compare: bool) -> None:
         parts.append(f"{r.rate(r.ours):5.2f}")
         if compare:
             parts.append(f"{r.rate(r.direct):6.2f}")
-        parts.append(f"{r.rate(r.aruco):5.2f}")
+        parts += [f"{r.rate(r.peers[peer]):5.2f}" for peer in PEERS]
     wrong = sum(r.wrong for r in rows.values())
     reasons = rows["normal"].reasons + rows["inverted"].reasons
     parts.append(f"{wrong:5d}" + (f" ({sum(r.wrong_direct for r in rows.values())})" if compare else ""))
@@ -145,59 +134,24 @@ def _print_row(label: str, rows: dict[Polarity, Row], compare: bool) -> None:
 
 
 def _header(first: str, compare: bool) -> None:
-    cols = ["ours", "direct", "ArUco"] if compare else ["ours", "ArUco"]
+    cols = ["ours", "direct", "ArUco", "April"] if compare else ["ours", "ArUco", "April"]
     norm = "  ".join(f"{c:>5}" for c in cols)
     print(f"{first}  {'normal':^{len(norm)}}  {'inverted':^{len(norm)}}  wrong  our failures")
     print(f"{' ' * len(first)}  {norm}  {norm}")
 
 
-def _plot(
-    panel: np.ndarray,
-    xs: Sequence[float],
-    series: list[tuple[list[float], tuple[int, int, int], str, bool]],
-    title: str,
-    xlabel: str,
-) -> None:
-    h, w = panel.shape[:2]
-    x0, y0, x1, y1 = 60, 40, w - 20, h - 50
-    cv2.rectangle(panel, (x0, y0), (x1, y1), (0, 0, 0), 1)
-    cv2.putText(panel, title, (x0, 25), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(panel, xlabel, ((x0 + x1) // 2 - 40, h - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
-    lo, hi = min(xs), max(xs)
-
-    def px(x: float, y: float) -> tuple[int, int]:
-        return int(x0 + (x - lo) / (hi - lo) * (x1 - x0)), int(y1 - y * (y1 - y0))
-
-    for v in (0.0, 0.25, 0.5, 0.75, 1.0):
-        p = px(lo, v)
-        cv2.line(panel, (x0, p[1]), (x1, p[1]), (220, 220, 220), 1)
-        cv2.putText(panel, f"{v:.2f}", (8, p[1] + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    last = -np.inf
-    for x in xs:  # tick labels no closer than 1/12 of the axis
-        if x - last < (hi - lo) / 12 and x != xs[-1]:
-            continue
-        last = x
-        p = px(x, 0)
-        cv2.putText(panel, f"{x:g}", (p[0] - 10, y1 + 16), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    for i, (ys, color, name, inverted) in enumerate(series):
-        # normal: thick line, filled dots; inverted: thin line, open circles
-        pts = np.array([px(x, y) for x, y in zip(xs, ys, strict=True)], np.int32)
-        cv2.polylines(panel, [pts], False, color, 1 if inverted else 2, cv2.LINE_AA)
-        for p in pts:
-            cv2.circle(panel, (int(p[0]), int(p[1])), 4 if inverted else 3, color, 1 if inverted else -1, cv2.LINE_AA)
-        cv2.putText(panel, name, (x0 + 10, y1 - 12 - 18 * i), cv2.FONT_HERSHEY_SIMPLEX, 0.45, color, 1, cv2.LINE_AA)
-
-
-def _series(rows: list[dict[Polarity, Row]]) -> list[tuple[list[float], tuple[int, int, int], str, bool]]:
-    out = []
-    styles: tuple[tuple[Polarity, bool], ...] = (("normal", False), ("inverted", True))
-    for pol, inverted in styles:
-        out.append(([r[pol].rate(r[pol].ours) for r in rows], (200, 60, 0), f"Order Type Tag, {pol}", inverted))
-        out.append(([r[pol].rate(r[pol].aruco) for r in rows], (0, 0, 200), f"ArUco 6x6, {pol}", inverted))
+def _series(rows: list[dict[Polarity, Row]]) -> dict[str, list[float]]:
+    """Rates per detector and polarity, in the order of the rows."""
+    out: dict[str, list[float]] = {}
+    for pol in ("normal", "inverted"):
+        out[f"Order Type Tag, {pol}"] = [r[pol].rate(r[pol].ours) for r in rows]
+        for peer in PEERS:
+            if pol == "normal" or peer == "ArUco 6x6":  # AprilTag 3 has no inverted mode
+                out[f"{peer}, {pol}"] = [r[pol].rate(r[pol].peers[peer]) for r in rows]
     return out
 
 
-def main(trials: int, out: str, compare: bool, seed: int, paired: bool = False) -> None:
+def main(trials: int, plot: str | None, compare: bool, seed: int, paired: bool = False) -> None:
     sweep = Sweep(compare)
     rng = np.random.default_rng(seed)
     pols: tuple[Polarity, Polarity] = ("normal", "inverted")
@@ -228,25 +182,23 @@ def main(trials: int, out: str, compare: bool, seed: int, paired: bool = False) 
     wrong = sum(r.wrong for rows in tilt_rows + dist_rows for r in rows.values())
     direct = sum(r.wrong_direct for rows in tilt_rows + dist_rows for r in rows.values())
     print(f"wrong IDs in all conditions: {wrong}" + (f" (direct: {direct})" if compare else ""))
-    canvas = np.full((420, 1200, 3), 255, np.uint8)
-    _plot(
-        canvas[:, :600],
-        TILTS,
-        _series(tilt_rows),
-        f"decode rate vs tilt (21 cm at {TILT_DISTANCE} m, f=700)",
-        "tilt (deg)",
-    )
-    _plot(canvas[:, 600:], DISTANCES, _series(dist_rows), "decode rate vs distance (tilt 0-30 deg)", "distance (m)")
-    cv2.imwrite(out, canvas)
-    print(f"plot: {out}")
+    if plot:
+        plot_lines(
+            plot,
+            [
+                (f"decode rate vs tilt (21 cm at {TILT_DISTANCE} m, f = 700 px)", "tilt (°)", "rate", TILTS,
+                 _series(tilt_rows)),
+                ("decode rate vs distance (tilt 0–30°)", "distance (m)", "rate", DISTANCES, _series(dist_rows)),
+            ],
+        )  # fmt: skip
 
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--trials", type=int, default=30, help="scenes per condition and polarity")
-    ap.add_argument("--out", default="decode_sweeps.png", help="plot file (PNG)")
+    ap.add_argument("--plot", default=None, metavar="PATH", help="write the rates as a PNG (matplotlib)")
     ap.add_argument("--compare", action="store_true", help="also run the decoder without the rectified retry")
     ap.add_argument("--seed", type=int, default=2018)
     ap.add_argument("--paired", action="store_true", help="the same scenes in both polarities")
     args = ap.parse_args()
-    main(args.trials, args.out, args.compare, args.seed, args.paired)
+    main(args.trials, args.plot, args.compare, args.seed, args.paired)

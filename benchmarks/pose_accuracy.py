@@ -1,15 +1,16 @@
-"""Pose accuracy: Order Type Tag (``estimate_pose``) vs ArUco 6×6 (sub-pixel corners + IPPE_SQUARE).
+"""Pose accuracy: Order Type Tag (``estimate_pose``) vs ArUco 6×6 and AprilTag 3 (corners + IPPE_SQUARE).
 
-Usage: python benchmarks/pose_accuracy.py [--tags N] [--seed S] [--diagnose] [--quiet]
+Usage: python benchmarks/pose_accuracy.py [--tags N] [--seed S] [--diagnose] [--quiet] [--plot PATH]
 
 The renders are made outside the decoder tests' drawing path: each Order Type Tag (k = 8,
 matchable, the highest printed MP of the bundled data — the tags users print) is exported by
 ``ottag-db export`` as a vector PDF (100 mm data area), rasterized by pypdfium2 at 40 px/mm and
 reduced to 20 px/mm by area averaging; the data area is located in that raster with sub-pixel
 edges (its dark coverage), so the texture's tag-plane coordinates come from the print itself.
-An ArUco 6×6 marker (``cv2.aruco.generateImageMarker``, DICT_6X6_250) whose black square is the
-same 10 cm is the peer. Both are photographed by the same pinhole camera (640×480, f = 700 px,
-principal point (319.5, 239.5), no distortion) at 30 known poses — distance to the tag centre
+An ArUco 6×6 marker (``cv2.aruco.generateImageMarker``, DICT_6X6_250) and an AprilTag 36h11
+marker (DICT_APRILTAG_36h11) whose black squares are the same 10 cm are the peers. All are
+photographed by the same pinhole camera (640×480, f = 700 px, principal point (319.5, 239.5), no
+distortion) at 30 known poses — distance to the tag centre
 40, 60, 80, 100, 120 cm × tilt 0, 30, 60° × roll 0, 35° — by a homography: the texture is
 mip-mapped (area averaging) to at most ~1.5 texels per supersampled pixel, warped bilinearly
 into a 4× supersampled frame and reduced with ``cv2.INTER_AREA``; then paper/ink grey levels
@@ -17,11 +18,14 @@ into a 4× supersampled frame and reduced with ``cv2.INTER_AREA``; then paper/in
 
 Ours: ``Detector`` on the bundled lookup, then ``estimate_pose`` with the placement
 ``decode --json`` uses (``tag_placement`` of the matched model points). ArUco:
-``cv2.aruco.ArucoDetector`` with ``CORNER_REFINE_SUBPIX`` and ``cv2.solvePnP(...,
-SOLVEPNP_IPPE_SQUARE)``. Printed for both: error of the tag-plane normal (degrees) and of the
-camera-to-plane distance (%), mean / max over the poses; target (issue 13): our mean normal
+``cv2.aruco.ArucoDetector`` with ``CORNER_REFINE_SUBPIX``; AprilTag 3: ``pupil_apriltags.Detector()``
+with its defaults (its corners are refined on the edges); both then ``cv2.solvePnP(...,
+SOLVEPNP_IPPE_SQUARE)`` on the four corners (one pose solver for both peers). Printed for all:
+error of the tag-plane normal (degrees) and of the camera-to-plane distance (%), mean / max over
+the poses; target (issue 13): our mean normal
 error ≤ 0.8 × ArUco's and our max no worse. ``--diagnose`` adds per-pose rows and the bias of
-our tag-plane points against the placement the tag was printed with.
+our tag-plane points against the placement the tag was printed with. ``--plot PATH`` writes the
+mean and largest normal errors of the three as bars (PNG, matplotlib).
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ import cv2
 import numpy as np
 import pypdfium2 as pdfium
 from decode_speed import bundled_tags
+from peers import PEERS, PeerReader, aruco_dictionary, plot_bars
 
 from ottag_db.core.placement import tag_placement
 from ottag_db.decode import Detector, estimate_pose, tag_object_points
@@ -110,10 +115,9 @@ def tag_texture(db: Path, tag: TagRecord, folder: Path) -> Texture:
     return Texture(tex, _edges(tex))
 
 
-def aruco_texture() -> Texture:
-    """DICT_6X6_250 marker 3, 800 px black square (8 cells of 100 px), 200 px white margin."""
-    d = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250)
-    marker = cv2.aruco.generateImageMarker(d, 3, 800)
+def marker_texture(peer: str) -> Texture:
+    """Marker 3 of ``peer``: 800 px black square (8 cells of 100 px), 200 px white margin."""
+    marker = cv2.aruco.generateImageMarker(aruco_dictionary(peer), 3, 800)
     img = cv2.copyMakeBorder(marker, 200, 200, 200, 200, cv2.BORDER_CONSTANT, value=255)
     return Texture(img, (200.0, 200.0, 1000.0, 1000.0))
 
@@ -174,15 +178,12 @@ def errors(r_est: np.ndarray, t_est: np.ndarray, r_mat: np.ndarray, t: np.ndarra
     return ang, 100 * abs(d_est - d) / d
 
 
-def aruco_pose(img: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """ArUco pose in our tag frame (corner origin, y down, z into the tag), or None when not detected."""
-    params = cv2.aruco.DetectorParameters()
-    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-    det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250), params)
-    corners, ids, _ = det.detectMarkers(img)
-    if ids is None or 3 not in ids.ravel():
+def peer_pose(reader: PeerReader, peer: str, img: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """A peer's pose in our tag frame (corner origin, y down, z into the tag), or None when not detected."""
+    found = reader.corners(peer, img)
+    if 3 not in found:
         return None
-    c = corners[int(np.flatnonzero(ids.ravel() == 3)[0])].reshape(4, 2)
+    c = found[3]
     h = SIZE / 2
     obj = np.array([[-h, h, 0], [h, h, 0], [h, -h, 0], [-h, -h, 0]], dtype=np.float64)
     ok, rvec, tvec = cv2.solvePnP(obj, c.astype(np.float64), K, None, flags=cv2.SOLVEPNP_IPPE_SQUARE)
@@ -191,6 +192,13 @@ def aruco_pose(img: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     r_a, _ = cv2.Rodrigues(rvec)
     r_ours = r_a @ np.diag([1.0, -1.0, -1.0])
     return r_ours, tvec.ravel() - r_ours @ np.array([h, h, 0])
+
+
+def _subpixel() -> cv2.aruco.DetectorParameters:
+    """ArUco's defaults with sub-pixel corner refinement (what a pose needs)."""
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    return params
 
 
 def true_plane_points(tag: TagRecord) -> np.ndarray:
@@ -232,6 +240,7 @@ def main() -> None:
     parser.add_argument("--diagnose", action="store_true", help="per-pose rows and tag-plane point bias")
     parser.add_argument("--seed", type=int, default=0, help="noise seed [0]")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    parser.add_argument("--plot", default=None, metavar="PATH", help="write the normal errors as bars (PNG)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -240,7 +249,9 @@ def main() -> None:
         tags = good[: args.tags]
         textures = [tag_texture(folder / "bundled.sqlite", t, folder) for t in tags]
     detector = Detector(lookup)
-    aru_tex = aruco_texture()
+    reader = PeerReader()
+    reader.aruco.setDetectorParameters(_subpixel())
+    peer_textures = {peer: marker_texture(peer) for peer in PEERS}
     rows = []
     plane_bias: list[float] = []
     variants: dict[str, list[tuple[float, float]]] = {}
@@ -271,14 +282,16 @@ def main() -> None:
             truth = true_plane_points(tag)
             for p in tag_object_points(d, SIZE, placement)[0][4:, :2]:
                 plane_bias.append(float(np.min(np.linalg.norm(truth - p, axis=1))))
-        ap = aruco_pose(render(aru_tex, r_mat, t, seed=1000 * args.seed + 1000 + i))
-        aru = None if ap is None else errors(ap[0], ap[1], r_mat, t)
-        rows.append((dist, tilt, roll, ours, aru))
+        peer_errors = []
+        for peer, texture in peer_textures.items():
+            found_pose = peer_pose(reader, peer, render(texture, r_mat, t, seed=1000 * args.seed + 1000 + i))
+            peer_errors.append(None if found_pose is None else errors(*found_pose, r_mat, t))
+        rows.append((dist, tilt, roll, ours, *peer_errors))
     if not args.quiet:
         print(file=sys.stderr)
     if args.diagnose:
         print(f"{'dist':>5} {'tilt':>5} {'roll':>5} | {'ours n°':>8} {'d %':>6} | {'ArUco n°':>8} {'d %':>6}")
-        for dist, tilt, roll, o, a in rows:
+        for dist, tilt, roll, o, a, _ in rows:
             os_ = f"{o[0]:8.3f} {o[1]:6.3f}" if o else f"{'—':>8} {'—':>6}"
             as_ = f"{a[0]:8.3f} {a[1]:6.3f}" if a else f"{'—':>8} {'—':>6}"
             print(f"{dist:5.2f} {tilt:5.0f} {roll:5.0f} | {os_} | {as_}")
@@ -297,7 +310,8 @@ def main() -> None:
     )
     print(f"{'':22} {'detected':>9} {'normal mean °':>14} {'max °':>7} {'dist mean %':>12} {'max %':>7}")
     summary = {}
-    for name, idx in (("ours (estimate_pose)", 3), ("ArUco 6×6 IPPE_SQUARE", 4)):
+    names = ("ours (estimate_pose)", "ArUco 6×6 IPPE_SQUARE", "AprilTag 3 IPPE_SQUARE")
+    for idx, name in enumerate(names, start=3):
         vals = [r[idx] for r in rows if r[idx] is not None]
         n = np.array([v[0] for v in vals]) if vals else np.array([np.nan])
         dd = np.array([v[1] for v in vals]) if vals else np.array([np.nan])
@@ -305,6 +319,17 @@ def main() -> None:
         stats = f"{n.mean():14.3f} {n.max():7.3f} {dd.mean():12.3f} {dd.max():7.3f}"
         print(f"{name:22} {len(vals):5d}/{len(rows):<3d} {stats}")
     (om, ox), (am, ax) = summary[3], summary[4]
+    if args.plot:
+        labels = ("Order Type Tag", *PEERS)
+        plot_bars(
+            args.plot,
+            f"pose: error of the tag-plane normal ({len(rows)} poses, 40–120 cm, tilt 0–60°)",
+            "degrees",
+            {
+                "mean": {label: summary[i][0] for i, label in enumerate(labels, start=3)},
+                "max": {label: summary[i][1] for i, label in enumerate(labels, start=3)},
+            },
+        )
     print(
         f"target: mean ≤ 0.8 × ArUco's ({0.8 * am:.3f}°): {'met' if om <= 0.8 * am else 'NOT met'}; "
         f"max ≤ ArUco's ({ax:.3f}°): {'met' if ox <= ax else 'NOT met'}"
