@@ -16,6 +16,7 @@ from typing import Any
 from ottag_db.app.decoding import Camera, annotate_detections, decode_array, decode_file, load_camera
 from ottag_db.app.detector import open_detector
 from ottag_db.app.dictionary_io import load_dictionary_file
+from ottag_db.app.pose_tracking import PoseTracker
 from ottag_db.app.video import VIDEO_SUFFIXES, WRITER_SUFFIXES, VideoWriter, input_kind, read_frames
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.errors import DecodeError, UsageError
@@ -269,11 +270,13 @@ def _decode_video(
     """The frame records of one video (see :func:`decode_inputs`); raises :class:`DecodeError`."""
     writer: VideoWriter | None = None
     report = None if progress is None else (lambda done, total: progress(path, done, total))
+    tracker = PoseTracker()  # ambiguous poses chosen by the video's previous frames
     try:
         for frame in read_frames(path, every=options.every, progress=report):
             fields, detections = decode_array(
                 setup.detector, frame.image, camera=options.camera, tag_size=options.tag_size_mm, numbers=setup.numbers
             )
+            tracker.track_record(frame.index, fields)
             record: dict[str, Any] = {"image": str(path), "frame": frame.index, "time_s": frame.time_s, **fields}
             _mark_near_misses(setup, record)
             if target is not None:

@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from ottag_db.app.pose_tracking import pose_ambiguity_json
 from ottag_db.core.placement import tag_placement
 from ottag_db.decode import Detection, Detector, estimate_pose, to_gray
 from ottag_db.errors import DecodeError, UsageError
@@ -272,6 +273,7 @@ def detection_json(
                 }
                 for s in pose.solutions
             ],
+            **pose_ambiguity_json(pose),
         }
     return out
 

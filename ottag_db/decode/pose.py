@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -13,7 +13,10 @@ from ottag_db.decode.types import Detection
 from ottag_db.errors import UsageError
 
 __all__ = [
+    "AMBIGUITY_LIMIT",
+    "AMBIGUITY_MIN_ANGLE_DEG",
     "CORNER_WEIGHT",
+    "MIN_NOISE_PX",
     "ROBUST_SCALE_PX",
     "Pose",
     "PoseSolution",
@@ -45,13 +48,22 @@ class Pose:
     of ``tvec``. Camera frame: OpenCV's (x right, y down, z forward).
 
     - ``rvec``/``R``/``tvec``: the refined pose (weighted Levenberg–Marquardt on all
-      correspondences from each IPPE solution, the lower weighted error kept; see
-      :func:`estimate_pose`);
+      correspondences from each IPPE solution and from their mirrors, the lower weighted error
+      kept; see :func:`estimate_pose`);
     - ``reprojection_error_px``: RMS reprojection error of the refined pose over all
       correspondences (4 corners plus the matched points);
-    - ``solutions``: both IPPE solutions (``cv2.SOLVEPNP_IPPE``), best first, each with its RMS
-      error; a ratio of their errors near 1 flags the planar pose ambiguity;
-    - ``n_points``: correspondences used (4 corners + the points when matched).
+    - ``solutions``: both IPPE solutions (``cv2.SOLVEPNP_IPPE``, unrefined, unweighted), lower
+      RMS error first;
+    - ``n_points``: correspondences used (4 corners + the points when matched);
+    - ``alternative``: the mirrored pose of the planar ambiguity (the other minimum, refined like
+      the pose; when there is only one minimum, the mirror of the pose as it lies), with its RMS
+      error;
+    - ``ambiguity``: likelihood of ``alternative`` relative to the pose under the noise model of
+      :func:`estimate_pose`, in (0, 1]: near 0 the image tells the two apart, near 1 it cannot;
+    - ``ambiguous``: ``ambiguity`` ≥ :data:`AMBIGUITY_LIMIT` and the two tag normals more than
+      :data:`AMBIGUITY_MIN_ANGLE_DEG` apart: the frame alone cannot choose the tilt (see
+      :func:`estimate_pose` for what to do);
+    - ``alternative_angle_deg``: angle between the pose's and the alternative's tag normals.
     """
 
     rvec: _F64
@@ -60,6 +72,29 @@ class Pose:
     reprojection_error_px: float
     solutions: tuple[PoseSolution, ...]
     n_points: int
+    alternative: PoseSolution
+    ambiguity: float
+    ambiguous: bool
+    alternative_angle_deg: float
+
+    def swapped(self) -> Pose:
+        """The same pose with :attr:`alternative` reported instead (and the pose as its alternative).
+
+        Returns
+        -------
+        Pose
+            ``rvec``/``R``/``tvec``/``reprojection_error_px`` of the alternative; ``ambiguity``,
+            ``ambiguous``, ``alternative_angle_deg``, ``solutions`` and ``n_points`` unchanged.
+        """
+        r_mat, _ = cv2.Rodrigues(self.alternative.rvec)
+        return replace(
+            self,
+            rvec=self.alternative.rvec,
+            tvec=self.alternative.tvec,
+            R=np.asarray(r_mat, dtype=np.float64),
+            reprojection_error_px=self.alternative.reprojection_error_px,
+            alternative=PoseSolution(self.rvec, self.tvec, self.reprojection_error_px),
+        )
 
     @property
     def distance(self) -> float:
@@ -124,6 +159,20 @@ ROBUST_SCALE_PX = 0.5
 _LM_ITERATIONS = 30
 
 
+def _cauchy_weights(res: _F64, weights: _F64, robust_px: float | None) -> _F64:
+    """Each correspondence's weight, Cauchy-reweighted by its residual ``res`` (n, 2) at ``robust_px``."""
+    return weights if robust_px is None else weights / (1.0 + np.sum(res**2, axis=1) / robust_px**2)
+
+
+def _weighted_cost(
+    obj: _F64, img: _F64, rvec: _F64, tvec: _F64, k: _F64, dist: _F64 | None, weights: _F64, robust_px: float | None
+) -> float:
+    """The cost :func:`_weighted_lm` minimises, at one pose."""
+    proj, _ = cv2.projectPoints(obj, rvec, tvec, k, dist)
+    res = proj.reshape(-1, 2) - img
+    return float(np.sum(_cauchy_weights(res, weights, robust_px) * np.sum(res**2, axis=1)))
+
+
 def _weighted_lm(
     obj: _F64, img: _F64, k: _F64, dist: _F64 | None, rvec: _F64, tvec: _F64, weights: _F64, robust_px: float | None
 ) -> tuple[_F64, _F64, float]:
@@ -141,9 +190,7 @@ def _weighted_lm(
     lam = 1e-3
     res, jac = residuals(rv, tv)
     for _ in range(_LM_ITERATIONS):
-        w = weights.copy()
-        if robust_px is not None:
-            w = w / (1.0 + np.sum(res**2, axis=1) / robust_px**2)
+        w = _cauchy_weights(res, weights, robust_px)
         w2 = np.repeat(w, 2)
         a = jac.T @ (w2[:, None] * jac)
         g = jac.T @ (w2 * res.ravel())
@@ -165,8 +212,52 @@ def _weighted_lm(
             and float(np.linalg.norm(step[3:])) < 1e-9 * float(np.linalg.norm(tv))
         ):
             break
-    w = weights if robust_px is None else weights / (1.0 + np.sum(res**2, axis=1) / robust_px**2)
-    return rv, tv, cost(res, w)
+    return rv, tv, cost(res, _cauchy_weights(res, weights, robust_px))
+
+
+#: Smallest noise (px per axis) assumed for a corner when the ambiguity is judged. The noise
+#: is estimated from each pose's own weighted residuals (corners ``corner_weight`` times as sure
+#: as vertices, see :func:`estimate_pose`), which a fit over 12 points with 6 unknowns makes
+#: small by chance now and then: 0.03 px is about the tenth percentile of that estimate on
+#: data areas 28–70 px wide (median 0.045 px), so the floor only stops chance from making a
+#: pose look surer than its image is.
+MIN_NOISE_PX = 0.03
+#: :attr:`Pose.ambiguous` when the mirrored pose is at least this likely relative to the pose
+#: (likelihood ratio under the noise model of :func:`estimate_pose`): 1 in 20, the usual
+#: two-sided 5 % level; a user who needs more (or less) certainty reads :attr:`Pose.ambiguity`.
+AMBIGUITY_LIMIT = 0.05
+#: … and only when the two poses' tag normals differ by more than this (degrees). Nearly
+#: head-on, the mirrored pose is tilted the other way by about as much as the pose, and the two
+#: tilts are both within the normal's own uncertainty at the small sizes where the ambiguity
+#: arises (several degrees on data areas 28–40 px wide): such a pair is not a choice between
+#: two readings of the scene.
+AMBIGUITY_MIN_ANGLE_DEG = 10.0
+#: Two refined poses whose tag normals are closer than this (degrees) are one minimum.
+_SAME_MINIMUM_DEG = 0.5
+
+
+def _normal_angle_deg(rv1: _F64, rv2: _F64) -> float:
+    """Angle between the tag normals (third columns of R) of two poses, degrees."""
+    n1 = np.asarray(cv2.Rodrigues(rv1)[0], dtype=np.float64)[:, 2]
+    n2 = np.asarray(cv2.Rodrigues(rv2)[0], dtype=np.float64)[:, 2]
+    return math.degrees(math.acos(float(np.clip(n1 @ n2, -1.0, 1.0))))
+
+
+def _mirror(obj: _F64, rvec: _F64, tvec: _F64, k: _F64, dist: _F64 | None) -> tuple[_F64, _F64]:
+    """The pose's mirror of the planar ambiguity: the IPPE solution of its own noise-free image
+    farther from it (the other tilt about the line of sight that explains the same homography)."""
+    proj, _ = cv2.projectPoints(obj, rvec, tvec, k, dist)
+    img = np.asarray(proj, dtype=np.float64).reshape(-1, 2)
+    return max(_ippe(obj, img, k, dist), key=lambda c: _normal_angle_deg(c[0], rvec))
+
+
+def _ippe(obj: _F64, img: _F64, k: _F64, dist: _F64 | None) -> list[tuple[_F64, _F64]]:
+    """The IPPE solutions ``(rvec, tvec)`` of planar correspondences (``cv2.SOLVEPNP_IPPE``)."""
+    count, rvecs, tvecs, _ = cv2.solvePnPGeneric(obj, img, k, dist, flags=cv2.SOLVEPNP_IPPE)
+    return [
+        (np.asarray(rvecs[i], dtype=np.float64).reshape(3), np.asarray(tvecs[i], dtype=np.float64).reshape(3))
+        for i in range(int(count))
+    ]
 
 
 def estimate_pose(
@@ -179,13 +270,29 @@ def estimate_pose(
     corner_weight: float = CORNER_WEIGHT,
     robust_scale_px: float | None = ROBUST_SCALE_PX,
 ) -> Pose:
-    """Pose of a detected tag for a calibrated camera.
+    """Pose of a detected tag for a calibrated camera, with the planar ambiguity stated.
 
-    Both IPPE solutions of all correspondences (4 corners, then the matched points) are refined
-    by a weighted Levenberg–Marquardt (each corner counts ``corner_weight`` times a vertex,
-    Cauchy reweighting at ``robust_scale_px``); the one with the lower weighted error over all
-    points is the pose. Near fronto-parallel the corners alone leave two nearly equal minima
-    (the planar ambiguity); the points choose between them.
+    A nearly fronto-parallel tag fits two poses tilted opposite ways about the line of sight
+    almost equally (the planar ambiguity: on a data area 28–70 px wide their images differ by
+    a tenth of a pixel or so). Both IPPE solutions of all correspondences (4 corners, then the
+    matched points) are refined by a weighted Levenberg–Marquardt; when both end in one minimum,
+    the mirror of that minimum is refined too. The noise model: each point's error is Gaussian
+    with a per-kind spread, a corner's ``1/sqrt(corner_weight)`` of a vertex's (corners come
+    from four straight sides fitted over their whole length, vertices from short sides meeting
+    at sharp tips), with Cauchy tails at ``robust_scale_px`` (a point off by a pixel is an
+    outlier, not evidence), and the scale estimated from the pose's own residuals (at least
+    :data:`MIN_NOISE_PX` for a corner). The pose is the minimum of lower cost;
+    :attr:`Pose.alternative` is the other, :attr:`Pose.ambiguity` the likelihood of the
+    alternative relative to the pose under that model.
+
+    What to do with it: ``ambiguity`` near 0 means one pose fits clearly better; near 1, both
+    fit alike. A pose with ``ambiguous`` set (ambiguity at least :data:`AMBIGUITY_LIMIT` and the
+    two normals more than :data:`AMBIGUITY_MIN_ANGLE_DEG` apart) is one of two mirrored poses
+    the frame cannot tell apart: do not act on its tilt alone. Let other evidence choose between
+    it and ``alternative`` — the previous frames on video
+    (:class:`ottag_db.app.pose_tracking.PoseTracker`), another tag on the same plane, the
+    orientation you expect — or drop it. Its position (``tvec``) holds either way (the two
+    differ in tilt, hardly in position).
 
     Parameters
     ----------
@@ -208,7 +315,7 @@ def estimate_pose(
     Returns
     -------
     Pose
-        See :class:`Pose` for the frames.
+        See :class:`Pose` for the frames and the ambiguity.
     """
     if not tag_size > 0:
         raise UsageError(f"tag_size must be positive, got {tag_size}")
@@ -221,19 +328,33 @@ def estimate_pose(
         raise UsageError(f"camera_matrix must be 3×3, got shape {k.shape}")
     dist = None if dist_coeffs is None else np.asarray(dist_coeffs, dtype=np.float64).ravel()
     obj, img = tag_object_points(detection, tag_size, placement)
-    n, rvecs, tvecs, _ = cv2.solvePnPGeneric(obj, img, k, dist, flags=cv2.SOLVEPNP_IPPE)
-    sols = []
-    for i in range(int(n)):
-        rv = np.asarray(rvecs[i], dtype=np.float64).reshape(3)
-        tv = np.asarray(tvecs[i], dtype=np.float64).reshape(3)
-        sols.append(PoseSolution(rv, tv, _rms(obj, img, rv, tv, k, dist)))
+    sols = [PoseSolution(rv, tv, _rms(obj, img, rv, tv, k, dist)) for rv, tv in _ippe(obj, img, k, dist)]
     sols.sort(key=lambda s: s.reprojection_error_px)
     if not sols:
         raise UsageError("no pose found (degenerate correspondences)")
+
     weights = np.ones(len(obj))
     weights[:4] = corner_weight
-    refined = [_weighted_lm(obj, img, k, dist, s.rvec, s.tvec, weights, robust_scale_px) for s in sols]
-    rv, tv, _ = min(refined, key=lambda r: r[2])
+
+    def refine(rv: _F64, tv: _F64) -> tuple[_F64, _F64, float]:
+        return _weighted_lm(obj, img, k, dist, rv, tv, weights, robust_scale_px)
+
+    minima = sorted((refine(s.rvec, s.tvec) for s in sols), key=lambda m: m[2])
+    best, alt = minima[0], minima[-1]
+    if _normal_angle_deg(best[0], alt[0]) < _SAME_MINIMUM_DEG:
+        alt = refine(*_mirror(obj, best[0], best[1], k, dist))
+        if alt[2] < best[2]:
+            best, alt = alt, best
+        if _normal_angle_deg(best[0], alt[0]) < _SAME_MINIMUM_DEG:
+            # one minimum: the mirror is judged where it lies (the ambiguity is then an upper bound)
+            mr, mt = _mirror(obj, best[0], best[1], k, dist)
+            alt = (mr, mt, _weighted_cost(obj, img, mr, mt, k, dist, weights, robust_scale_px))
+    rv, tv = best[0], best[1]
+    # corner noise variance: the weighted residual per degree of freedom, a vertex counting 1/corner_weight
+    dof = max(2 * len(obj) - 6, 1)
+    var = max(MIN_NOISE_PX**2, best[2] / (corner_weight * dof))
+    ambiguity = math.exp(-max(alt[2] - best[2], 0.0) / (2.0 * corner_weight * var))
+    angle = _normal_angle_deg(best[0], alt[0])
     r_mat, _ = cv2.Rodrigues(rv)
     return Pose(
         rvec=rv,
@@ -242,4 +363,8 @@ def estimate_pose(
         reprojection_error_px=_rms(obj, img, rv, tv, k, dist),
         solutions=tuple(sols),
         n_points=len(obj),
+        alternative=PoseSolution(alt[0], alt[1], _rms(obj, img, alt[0], alt[1], k, dist)),
+        ambiguity=ambiguity,
+        ambiguous=ambiguity >= AMBIGUITY_LIMIT and angle > AMBIGUITY_MIN_ANGLE_DEG,
+        alternative_angle_deg=angle,
     )
