@@ -18,6 +18,8 @@ __version__ = "0.1.0"
 _EXPORTS: dict[str, str] = {
     # app
     "open_detector": "ottag_db.app.detector",
+    "Camera": "ottag_db.app.decoding",
+    "load_camera": "ottag_db.app.decoding",
     "TagFilter": "ottag_db.app.export",
     "export_sheet": "ottag_db.app.export",
     "render_tag": "ottag_db.app.export",
@@ -122,6 +124,7 @@ _EXPORTS: dict[str, str] = {
 __all__ = [
     "MP_THRESHOLDS",
     "OFFICIAL_RECORD_COUNTS",
+    "Camera",
     "CanonicalBatch",
     "CanonicalForm",
     "Database",
@@ -195,6 +198,7 @@ __all__ = [
     "lambda_text",
     "lambda_texts",
     "list_order_types",
+    "load_camera",
     "load_lookup",
     "maximal_perturbation",
     "maximal_perturbations",
@@ -247,6 +251,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:
+    from ottag_db.app.decoding import Camera, load_camera
     from ottag_db.app.detector import open_detector
     from ottag_db.app.export import TagFilter, export_sheet, render_tag
     from ottag_db.app.generating import generate_database

@@ -4,7 +4,8 @@
 - :mod:`~ottag_db.app.reports`: the JSON of ``stats``/``show`` and the CSV of ``list``;
 - :mod:`~ottag_db.app.export`: tag sheets and single-tag renders from the database;
 - :mod:`~ottag_db.app.options`: sheet settings from option texts;
-- :mod:`~ottag_db.app.detector`: a detector whose lookup comes from a database;
+- :mod:`~ottag_db.app.detector`: :func:`~ottag_db.app.detector.open_detector`, a detector from a
+  database, one of its dictionaries or a dictionary file;
 - :mod:`~ottag_db.app.decode_batch`, :mod:`~ottag_db.app.decoding` and
   :mod:`~ottag_db.app.video`: decoding image and video files (options, JSON records, pose,
   drawings);
