@@ -31,6 +31,7 @@ from ottag_db.core.lookup import TagLookup
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
+from ottag_db.decode.model_budget import rank_for_model, ranking_score
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import around_detection, outlined_before, same_quad, same_tag, seen_before, within_detection
@@ -236,12 +237,25 @@ class Detector:
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):
                     detections.append(result)
-            # last, and only off the tags this pass decoded (pieces of a tag are not tags)
-            for quad, first in by_model:
-                result = first
-                if self._bank and not within_detection(quad, detections):
-                    rivals = tuple(g for q, g in guesses if same_quad(q, quad))
-                    result = read_model(gray, quad, first, self._bank, p, clock, rivals)
+            # last, and only off the tags this pass decoded (pieces of a tag are not tags), within
+            # the pass's budget: to the candidates most like a printed tag
+            bank = self._bank
+            queue = [(q, r) for q, r in by_model if not within_detection(q, detections)]
+            rejected.extend(r.at(q) for q, r in by_model if within_detection(q, detections))
+            scores = [ranking_score(gray, q, bank, p) for q, _ in queue] if bank is not None else []
+            chosen, passed_over = rank_for_model(scores, p.model_max_reads)
+            clock.lap("model")
+            for i in passed_over:
+                quad, first = queue[i]
+                note = f"not read by model: the pass's {p.model_max_reads} readings went to candidates more like a tag"
+                rejected.append(replace(first, detail=f"{first.detail}; {note}".lstrip("; ")).at(quad))
+            for i in chosen:
+                quad, first = queue[i]
+                if bank is None or within_detection(quad, detections):  # of a tag read by model just now
+                    rejected.append(first.at(quad))
+                    continue
+                rivals = tuple(g for q, g in guesses if same_quad(q, quad))
+                result = read_model(gray, quad, first, bank, p, clock, rivals)
                 if isinstance(result, Rejection):
                     if result.model_best is not None:
                         guesses.append((quad, result.model_best))

@@ -56,7 +56,6 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -64,21 +63,19 @@ from ottag_db.core.canonical import lambda_text
 from ottag_db.core.single_set import read_set
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import (
-    INVERTED_QUIET,
     Aligned,
     View,
     align,
     neighbourhood,
     outline_views,
 )
+from ottag_db.decode.model_budget import coarse_samples, contour_views
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import squeeze
 from ottag_db.decode.reading import points_fit
 from ottag_db.decode.templates import (
-    MODEL_GRID,
     TemplateBank,
-    normalized_rows,
     placement,
 )
 from ottag_db.decode.types import Detection, DetectorParams, ModelGuess, Quad, Rejection
@@ -217,7 +214,7 @@ def _shows_own_print(gray: NDArray[np.uint8], reading: Detection, bank: Template
     if not rows:
         return False
     turns = [View(np.roll(reading.corners, -r, axis=0), reading.polarity) for r in range(4)]
-    views, samples = _coarse_samples(gray, [(view, square_homography(view.corners)) for view in turns])
+    views, samples = coarse_samples(gray, [(view, square_homography(view.corners)) for view in turns])
     if not views:
         return False
     scores = bank.coarse[rows] @ samples.T  # (rows, turns)
@@ -225,52 +222,6 @@ def _shows_own_print(gray: NDArray[np.uint8], reading: Detection, bank: Template
     roi, origin = neighbourhood(gray, [views[best_view].corners])
     a = align(roi, origin, bank, rows[best_row], views[best_view])
     return a is not None and _accepted(a, -1.0, params)
-
-
-def _views(quad: Quad, params: DetectorParams) -> list[View]:
-    """The candidate's readings as a data area: its four rotations in its polarity, and for a
-    dark quad also the four of the white data area inside it, as an inverted tag's quiet zone."""
-    views = [View(np.roll(quad.corners, -r, axis=0), quad.polarity) for r in range(4)]
-    if quad.polarity == "normal" and "inverted" in params.polarities:
-        outer = square_homography(quad.corners)
-        if outer is not None:
-            q = INVERTED_QUIET / (1 + 2 * INVERTED_QUIET)
-            inner = apply_homography(outer, q + (1 - 2 * q) * UNIT_SQUARE)
-            if np.isfinite(inner).all():
-                views += [View(np.roll(inner, -r, axis=0), "inverted") for r in range(4)]
-    return [v for v in views if v.polarity in params.polarities]
-
-
-def _sample(gray: NDArray[np.uint8], to_frame: _F64, lo: float, hi: float, size: int) -> _F32 | None:
-    """The frame over the window ``[lo, hi]²`` of the data area, ``size²`` cells, area-averaged
-    from a 4× finer bilinear warp. None when the map is degenerate."""
-    fine = size * 4
-    step = (hi - lo) / fine
-    cell_to_unit = np.array([[step, 0, lo + step / 2], [0, step, lo + step / 2], [0, 0, 1.0]])
-    m = to_frame @ cell_to_unit
-    if not np.isfinite(m).all():
-        return None
-    warped = cv2.warpPerspective(
-        gray, m, (fine, fine), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
-    )
-    return np.asarray(cv2.resize(warped, (size, size), interpolation=cv2.INTER_AREA), dtype=np.float32)
-
-
-def _coarse_samples(gray: NDArray[np.uint8], framed: list[tuple[View, _F64 | None]]) -> tuple[list[View], _F32]:
-    """The views whose data area samples on the coarse grid (each through its homography from
-    data-area units to the frame) and their samples as normalized rows, triangles bright (an
-    inverted view's sample negated): ``bank.coarse @ rows.T`` scores every template. The rows
-    are ``(0, MODEL_GRID²)`` when no view samples."""
-    samples: list[_F32] = []
-    kept: list[View] = []
-    for view, to_frame in framed:
-        s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, MODEL_GRID)
-        if s is not None:
-            samples.append(s.ravel() if view.polarity == "normal" else -s.ravel())
-            kept.append(view)
-    if not samples:
-        return kept, np.zeros((0, MODEL_GRID * MODEL_GRID), dtype=np.float32)
-    return kept, normalized_rows(np.stack(samples))
 
 
 def read_model(
@@ -312,11 +263,11 @@ def read_model(
         the aligned homography (frame pixels, canonical label order); else ``first`` (with
         the best aligned tag in ``model_best`` when one was aligned).
     """
-    views = _views(quad, params)
+    views = contour_views(quad, params)
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
     roi, origin = neighbourhood(gray, [view.corners for view in views])
     views += outline_views(roi, origin, views, math.sqrt(quad.area), quad.polarity)
-    kept, rows = _coarse_samples(gray, [(view, square_homography(view.corners)) for view in views])
+    kept, rows = coarse_samples(gray, [(view, square_homography(view.corners)) for view in views])
     if not kept:
         clock.lap("model")
         return first
@@ -330,10 +281,10 @@ def read_model(
             chosen += _best_tags(bank, scores[:, cols], [kept[i] for i in cols])
     aligned: list[Aligned] = []
     unaligned: list[float] = []  # coarse scores of candidates ECC could not align
-    for row, view, coarse in chosen:
+    for row, view, score in chosen:
         a = align(roi, origin, bank, row, view)
         if a is None:
-            unaligned.append(coarse)
+            unaligned.append(score)
         else:
             aligned.append(a)
     clock.lap("model")
@@ -413,7 +364,7 @@ def _challengers(
     framed: list[tuple[View, _F64 | None]] = [
         (View(apply_homography(to_frame, UNIT_SQUARE), top.view.polarity), to_frame) for to_frame in turned
     ]
-    views, rows = _coarse_samples(gray, framed)
+    views, rows = coarse_samples(gray, framed)
     if not views:
         return []
     own = [0] if views[0] is framed[0][0] else []  # the column of the winner's own turn

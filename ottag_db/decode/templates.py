@@ -19,6 +19,7 @@ from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_
 
 __all__ = [
     "MODEL_GRID",
+    "RANKING_GRID",
     "TemplateBank",
     "draw_through",
     "normalized_rows",
@@ -33,6 +34,9 @@ _F32 = NDArray[np.float32]
 #: Side of the coarse templates, cells (the data area's side; ~1,000 cells tell the tags of the
 #: complete eight-point database apart while a frame's views are scored in a few ms).
 MODEL_GRID = 32
+#: Side of the ranking templates, cells: enough to tell a tag's triangles from brick, text or
+#: foliage, which is all the ranking of candidates for reading by model asks.
+RANKING_GRID = 16
 #: Supersampling of the coarse templates (the fine ones use :func:`rasterize`'s default, 4): a
 #: quarter of the work when the bank is built, and coarse cells are compared unaligned anyway.
 _COARSE_SUPERSAMPLING = 2
@@ -56,12 +60,17 @@ class TemplateBank:
     coarse : numpy.ndarray
         ``(N, MODEL_GRID²)`` float32, each row the template (triangles bright) minus its mean,
         divided by its norm: a dot product with a view normalized alike is their correlation.
+    ranking : numpy.ndarray
+        ``(N, RANKING_GRID²)`` float32, the coarse templates averaged over 2 × 2 cells and
+        normalized alike: a quarter of the work to tell which candidates look like a tag
+        (:mod:`~ottag_db.decode.model_budget`).
     """
 
     entries: tuple[LookupEntry, ...]
     realization: NDArray[np.intp]
     triangles: tuple[_F64, ...]
     coarse: _F32
+    ranking: _F32
 
     def __len__(self) -> int:
         return len(self.entries)
@@ -114,7 +123,17 @@ def template_bank(lookup: TagLookup, max_templates: int) -> TemplateBank | None:
         coarse[members] = rasterize(tris, 0.0, 1.0, MODEL_GRID, _COARSE_SUPERSAMPLING).reshape(len(members), -1)
         for j, i in enumerate(members):
             triangles[i] = tris[j]
-    return TemplateBank(tuple(entries), np.asarray(rows, dtype=np.intp), tuple(triangles), normalized_rows(coarse))
+    g = RANKING_GRID
+    ranking = (
+        coarse.reshape(len(entries), g, MODEL_GRID // g, g, MODEL_GRID // g).mean(axis=(2, 4)).reshape(len(entries), -1)
+    )
+    return TemplateBank(
+        tuple(entries),
+        np.asarray(rows, dtype=np.intp),
+        tuple(triangles),
+        normalized_rows(coarse),
+        normalized_rows(ranking),
+    )
 
 
 def placement(entry: LookupEntry, r: int) -> _F64:

@@ -304,7 +304,18 @@ class DetectorParams:
       (ρ 0.923) explained away by a misfit of 0.274 (steep small tags of
       benchmarks/soft_decoding.py read as with 0.05);
     - ``model_max_templates``: a lookup with more printed tags than this is not read by model
-      (the templates take ``4 · 32²`` bytes each, built with the detector).
+      (the templates take ``4 · 32²`` bytes each, built with the detector);
+    - ``model_max_reads``: readings by model per candidate pass (binarization), given to the
+      candidates whose coarse match looks most like a printed tag
+      (:mod:`ottag_db.decode.model_budget`; the others are rejected with their first reason,
+      saying so). Each reading costs 10–40 ms of ECC alignments, and a frame of brick, text
+      or foliage can hold dozens of dark quads that no other reading decodes. Per pass, not
+      per frame: a later pass outlines only what earlier ones did not, so a tag's better
+      outline competes there with few others; on frames holding a tag at 84–86° among 20
+      dark quads with a bright blob each (which match printed tags better than the tag's first
+      outline does), a budget of 4 per frame lost 7 of 10 tags, 1 per pass none. 2 reads as
+      many of 300 frames of one tag at 78–86° as no budget (292, none wrong), and bounds a
+      frame to 8 readings (the last two passes run only on a frame that read nothing).
 
     Raises :class:`~ottag_db.errors.UsageError` for invalid settings.
     """
@@ -350,6 +361,7 @@ class DetectorParams:
     model_max_quiet_misfit: float = 0.3
     model_misfit_lead: float = 0.08
     model_max_templates: int = 20_000
+    model_max_reads: int = 2
 
     def __post_init__(self) -> None:
         pols: Any = self.polarities
@@ -364,7 +376,7 @@ class DetectorParams:
             raise UsageError("at least one of use_otsu and use_adaptive must be True")
         for name in (
             "min_quad_area_px", "min_quad_side_px", "min_margin_px", "max_reproj_px",
-            "soft_max_flips", "soft_max_triples", "soft_min_fit_gap", "model_misfit_lead",
+            "soft_max_flips", "soft_max_triples", "soft_min_fit_gap", "model_misfit_lead", "model_max_reads",
         ):  # fmt: skip
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must not be negative")
