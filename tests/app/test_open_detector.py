@@ -6,10 +6,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 
 import ottag_db
 from ottag_db.app.detector import open_detector
 from ottag_db.app.export import render_tag
+from ottag_db.cli import cli
 from ottag_db.decode import DetectorParams
 from ottag_db.errors import DatabaseError, DictionaryError, NotFoundError, UsageError
 from ottag_db.files.bundled import bundled_point_files
@@ -96,3 +98,17 @@ def test_what_cannot_be_opened_is_a_typed_error(small_db: Path, tmp_path: Path) 
     with pytest.raises(UsageError, match="alone"):
         open_detector(small_db, dictionary_file=small_db.parent / "six.json")
     assert all(issubclass(e, ottag_db.OttagError) for e in (DatabaseError, NotFoundError, DictionaryError, UsageError))
+
+
+def test_the_cli_says_what_cannot_be_opened_in_one_line(small_db: Path, tmp_path: Path, runner: CliRunner) -> None:
+    png = str(small_db.parent / "table9.png")
+    for args in (
+        ["decode", png, "--dictionary-file", str(tmp_path / "missing.json")],
+        ["decode", png, "--db", str(tmp_path / "missing.sqlite")],
+        ["decode", png, "--db", str(small_db), "--dictionary", "nope"],
+    ):
+        result = runner.invoke(cli, args)
+        assert result.exit_code == 1, result.output
+        assert result.stderr.count("\n") == 1 and result.stderr.startswith("error: "), result.stderr
+    result = runner.invoke(cli, ["decode", png, "--dictionary-file", str(small_db.parent / "six.json")])
+    assert result.exit_code == 0 and "0 tag(s)" in result.stdout
