@@ -9,6 +9,15 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ottag_db.decode.pose_ambiguity import (
+    AMBIGUITY_LIMIT,
+    AMBIGUITY_MIN_ANGLE_DEG,
+    ippe,
+    likelihood_ratio,
+    mirrored_minima,
+    normal_angle_deg,
+    outlying_side,
+)
 from ottag_db.decode.types import Detection
 from ottag_db.errors import UsageError
 
@@ -16,7 +25,6 @@ __all__ = [
     "AMBIGUITY_LIMIT",
     "AMBIGUITY_MIN_ANGLE_DEG",
     "CORNER_WEIGHT",
-    "MIN_NOISE_PX",
     "ROBUST_SCALE_PX",
     "Pose",
     "PoseSolution",
@@ -60,9 +68,9 @@ class Pose:
       error;
     - ``ambiguity``: likelihood of ``alternative`` relative to the pose under the noise model of
       :func:`estimate_pose`, in (0, 1]: near 0 the image tells the two apart, near 1 it cannot;
-    - ``ambiguous``: ``ambiguity`` ≥ :data:`AMBIGUITY_LIMIT` and the two tag normals more than
-      :data:`AMBIGUITY_MIN_ANGLE_DEG` apart: the frame alone cannot choose the tilt (see
-      :func:`estimate_pose` for what to do);
+    - ``ambiguous``: ``ambiguity`` at least :data:`~.pose_ambiguity.AMBIGUITY_LIMIT` and the
+      two tag normals more than :data:`~.pose_ambiguity.AMBIGUITY_MIN_ANGLE_DEG` apart: the frame
+      alone cannot choose the tilt (see :func:`estimate_pose` for what to do);
     - ``alternative_angle_deg``: angle between the pose's and the alternative's tag normals.
     """
 
@@ -156,108 +164,6 @@ CORNER_WEIGHT = 10.0
 #: Scale (px) of the Cauchy reweighting of every correspondence in the final refinement: a point
 #: off by ``c`` counts half, so one vertex misplaced at a sliver tip cannot tilt the pose.
 ROBUST_SCALE_PX = 0.5
-_LM_ITERATIONS = 30
-
-
-def _cauchy_weights(res: _F64, weights: _F64, robust_px: float | None) -> _F64:
-    """Each correspondence's weight, Cauchy-reweighted by its residual ``res`` (n, 2) at ``robust_px``."""
-    return weights if robust_px is None else weights / (1.0 + np.sum(res**2, axis=1) / robust_px**2)
-
-
-def _weighted_cost(
-    obj: _F64, img: _F64, rvec: _F64, tvec: _F64, k: _F64, dist: _F64 | None, weights: _F64, robust_px: float | None
-) -> float:
-    """The cost :func:`_weighted_lm` minimises, at one pose."""
-    proj, _ = cv2.projectPoints(obj, rvec, tvec, k, dist)
-    res = proj.reshape(-1, 2) - img
-    return float(np.sum(_cauchy_weights(res, weights, robust_px) * np.sum(res**2, axis=1)))
-
-
-def _weighted_lm(
-    obj: _F64, img: _F64, k: _F64, dist: _F64 | None, rvec: _F64, tvec: _F64, weights: _F64, robust_px: float | None
-) -> tuple[_F64, _F64, float]:
-    """Levenberg–Marquardt on the weighted (and, with ``robust_px``, Cauchy-reweighted) squared
-    reprojection error; returns the refined ``rvec``, ``tvec`` and the final weighted cost."""
-    rv, tv = rvec.astype(np.float64).reshape(3).copy(), tvec.astype(np.float64).reshape(3).copy()
-
-    def residuals(r: _F64, t: _F64) -> tuple[_F64, _F64]:
-        proj, jac = cv2.projectPoints(obj, r, t, k, dist)
-        return proj.reshape(-1, 2) - img, np.asarray(jac, dtype=np.float64)[:, :6]
-
-    def cost(res: _F64, w: _F64) -> float:
-        return float(np.sum(w * np.sum(res**2, axis=1)))
-
-    lam = 1e-3
-    res, jac = residuals(rv, tv)
-    for _ in range(_LM_ITERATIONS):
-        w = _cauchy_weights(res, weights, robust_px)
-        w2 = np.repeat(w, 2)
-        a = jac.T @ (w2[:, None] * jac)
-        g = jac.T @ (w2 * res.ravel())
-        c0 = cost(res, w)
-        improved = False
-        for _ in range(12):
-            step = -np.linalg.solve(a + lam * np.diag(np.diag(a) + 1e-12), g)
-            r1, t1 = rv + step[:3], tv + step[3:]
-            res1, jac1 = residuals(r1, t1)
-            if cost(res1, w) < c0:
-                rv, tv, res, jac = r1, t1, res1, jac1
-                lam = max(lam / 10, 1e-9)
-                improved = True
-                break
-            lam *= 10
-        # converged: the step moves the rotation by < 1e-9 rad and the position by < 1e-9 of the distance
-        if not improved or (
-            float(np.max(np.abs(step[:3]))) < 1e-9
-            and float(np.linalg.norm(step[3:])) < 1e-9 * float(np.linalg.norm(tv))
-        ):
-            break
-    return rv, tv, cost(res, _cauchy_weights(res, weights, robust_px))
-
-
-#: Smallest noise (px per axis) assumed for a corner when the ambiguity is judged. The noise
-#: is estimated from each pose's own weighted residuals (corners ``corner_weight`` times as sure
-#: as vertices, see :func:`estimate_pose`), which a fit over 12 points with 6 unknowns makes
-#: small by chance now and then: 0.03 px is about the tenth percentile of that estimate on
-#: data areas 28–70 px wide (median 0.045 px), so the floor only stops chance from making a
-#: pose look surer than its image is.
-MIN_NOISE_PX = 0.03
-#: :attr:`Pose.ambiguous` when the mirrored pose is at least this likely relative to the pose
-#: (likelihood ratio under the noise model of :func:`estimate_pose`): 1 in 20, the usual
-#: two-sided 5 % level; a user who needs more (or less) certainty reads :attr:`Pose.ambiguity`.
-AMBIGUITY_LIMIT = 0.05
-#: … and only when the two poses' tag normals differ by more than this (degrees). Nearly
-#: head-on, the mirrored pose is tilted the other way by about as much as the pose, and the two
-#: tilts are both within the normal's own uncertainty at the small sizes where the ambiguity
-#: arises (several degrees on data areas 28–40 px wide): such a pair is not a choice between
-#: two readings of the scene.
-AMBIGUITY_MIN_ANGLE_DEG = 10.0
-#: Two refined poses whose tag normals are closer than this (degrees) are one minimum.
-_SAME_MINIMUM_DEG = 0.5
-
-
-def _normal_angle_deg(rv1: _F64, rv2: _F64) -> float:
-    """Angle between the tag normals (third columns of R) of two poses, degrees."""
-    n1 = np.asarray(cv2.Rodrigues(rv1)[0], dtype=np.float64)[:, 2]
-    n2 = np.asarray(cv2.Rodrigues(rv2)[0], dtype=np.float64)[:, 2]
-    return math.degrees(math.acos(float(np.clip(n1 @ n2, -1.0, 1.0))))
-
-
-def _mirror(obj: _F64, rvec: _F64, tvec: _F64, k: _F64, dist: _F64 | None) -> tuple[_F64, _F64]:
-    """The pose's mirror of the planar ambiguity: the IPPE solution of its own noise-free image
-    farther from it (the other tilt about the line of sight that explains the same homography)."""
-    proj, _ = cv2.projectPoints(obj, rvec, tvec, k, dist)
-    img = np.asarray(proj, dtype=np.float64).reshape(-1, 2)
-    return max(_ippe(obj, img, k, dist), key=lambda c: _normal_angle_deg(c[0], rvec))
-
-
-def _ippe(obj: _F64, img: _F64, k: _F64, dist: _F64 | None) -> list[tuple[_F64, _F64]]:
-    """The IPPE solutions ``(rvec, tvec)`` of planar correspondences (``cv2.SOLVEPNP_IPPE``)."""
-    count, rvecs, tvecs, _ = cv2.solvePnPGeneric(obj, img, k, dist, flags=cv2.SOLVEPNP_IPPE)
-    return [
-        (np.asarray(rvecs[i], dtype=np.float64).reshape(3), np.asarray(tvecs[i], dtype=np.float64).reshape(3))
-        for i in range(int(count))
-    ]
 
 
 def estimate_pose(
@@ -275,23 +181,23 @@ def estimate_pose(
     A nearly fronto-parallel tag fits two poses tilted opposite ways about the line of sight
     almost equally (the planar ambiguity: on a data area 28–70 px wide their images differ by
     a tenth of a pixel or so). Both IPPE solutions of all correspondences (4 corners, then the
-    matched points) are refined by a weighted Levenberg–Marquardt; when both end in one minimum,
-    the mirror of that minimum is refined too. The noise model: each point's error is Gaussian
-    with a per-kind spread, a corner's ``1/sqrt(corner_weight)`` of a vertex's (corners come
-    from four straight sides fitted over their whole length, vertices from short sides meeting
-    at sharp tips), with Cauchy tails at ``robust_scale_px`` (a point off by a pixel is an
-    outlier, not evidence), and the scale estimated from the pose's own residuals (at least
-    :data:`MIN_NOISE_PX` for a corner). The pose is the minimum of lower cost;
-    :attr:`Pose.alternative` is the other, :attr:`Pose.ambiguity` the likelihood of the
-    alternative relative to the pose under that model.
+    matched points) are refined by a weighted Levenberg–Marquardt, and their mirrors when both
+    end in one minimum (:mod:`~ottag_db.decode.pose_ambiguity`). The noise model: each point's
+    error is Gaussian with a spread per kind, a corner's ``1/sqrt(corner_weight)`` of a
+    vertex's (corners come from four straight sides fitted over their whole length, vertices
+    from short sides meeting at sharp tips), with Cauchy tails at ``robust_scale_px`` (a point
+    off by a pixel is an outlier, not evidence), its scale estimated from the pose's own
+    residuals. A side's two corners that the other points clearly contradict are left out
+    (a data-area side found a pixel or two off tilts a pose the corners dominate). The
+    pose is the minimum of lower cost; :attr:`Pose.alternative` is its mirror and
+    :attr:`Pose.ambiguity` the mirror's likelihood relative to the pose under that model.
 
-    What to do with it: ``ambiguity`` near 0 means one pose fits clearly better; near 1, both
-    fit alike. A pose with ``ambiguous`` set (ambiguity at least :data:`AMBIGUITY_LIMIT` and the
-    two normals more than :data:`AMBIGUITY_MIN_ANGLE_DEG` apart) is one of two mirrored poses
-    the frame cannot tell apart: do not act on its tilt alone. Let other evidence choose between
-    it and ``alternative`` — the previous frames on video
-    (:class:`ottag_db.app.pose_tracking.PoseTracker`), another tag on the same plane, the
-    orientation you expect — or drop it. Its position (``tvec``) holds either way (the two
+    What to do with it: ``ambiguity`` near 0 means the pose fits clearly better than its
+    mirror; near 1, both fit alike. A pose with ``ambiguous`` set is one of two mirrored poses
+    its frame cannot tell apart: do not act on its tilt alone. Let other evidence choose
+    between it and ``alternative`` — the previous frames on video
+    (:class:`ottag_db.app.pose_tracking.PoseTracker` does that), another tag on the same plane,
+    the orientation you expect — or drop it. Its position (``tvec``) holds either way (the two
     differ in tilt, hardly in position).
 
     Parameters
@@ -328,33 +234,21 @@ def estimate_pose(
         raise UsageError(f"camera_matrix must be 3×3, got shape {k.shape}")
     dist = None if dist_coeffs is None else np.asarray(dist_coeffs, dtype=np.float64).ravel()
     obj, img = tag_object_points(detection, tag_size, placement)
-    sols = [PoseSolution(rv, tv, _rms(obj, img, rv, tv, k, dist)) for rv, tv in _ippe(obj, img, k, dist)]
+    sols = [PoseSolution(rv, tv, _rms(obj, img, rv, tv, k, dist)) for rv, tv in ippe(obj, img, k, dist)]
     sols.sort(key=lambda s: s.reprojection_error_px)
     if not sols:
         raise UsageError("no pose found (degenerate correspondences)")
 
     weights = np.ones(len(obj))
     weights[:4] = corner_weight
-
-    def refine(rv: _F64, tv: _F64) -> tuple[_F64, _F64, float]:
-        return _weighted_lm(obj, img, k, dist, rv, tv, weights, robust_scale_px)
-
-    minima = sorted((refine(s.rvec, s.tvec) for s in sols), key=lambda m: m[2])
-    best, alt = minima[0], minima[-1]
-    if _normal_angle_deg(best[0], alt[0]) < _SAME_MINIMUM_DEG:
-        alt = refine(*_mirror(obj, best[0], best[1], k, dist))
-        if alt[2] < best[2]:
-            best, alt = alt, best
-        if _normal_angle_deg(best[0], alt[0]) < _SAME_MINIMUM_DEG:
-            # one minimum: the mirror is judged where it lies (the ambiguity is then an upper bound)
-            mr, mt = _mirror(obj, best[0], best[1], k, dist)
-            alt = (mr, mt, _weighted_cost(obj, img, mr, mt, k, dist, weights, robust_scale_px))
+    best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
+    side = outlying_side(obj, img, k, dist, weights, robust_scale_px, best) if len(obj) > 4 else None
+    if side is not None:
+        weights[list(side)] = 0.0
+        best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
     rv, tv = best[0], best[1]
-    # corner noise variance: the weighted residual per degree of freedom, a vertex counting 1/corner_weight
-    dof = max(2 * len(obj) - 6, 1)
-    var = max(MIN_NOISE_PX**2, best[2] / (corner_weight * dof))
-    ambiguity = math.exp(-max(alt[2] - best[2], 0.0) / (2.0 * corner_weight * var))
-    angle = _normal_angle_deg(best[0], alt[0])
+    ambiguity = likelihood_ratio(obj, img, k, dist, weights, best, alt)
+    angle = normal_angle_deg(best[0], alt[0])
     r_mat, _ = cv2.Rodrigues(rv)
     return Pose(
         rvec=rv,
