@@ -16,7 +16,6 @@ from ottag_db.decode.pose_ambiguity import (
     likelihood_ratio,
     mirrored_minima,
     normal_angle_deg,
-    outlying_side,
 )
 from ottag_db.decode.types import Detection
 from ottag_db.errors import UsageError
@@ -187,10 +186,8 @@ def estimate_pose(
     vertex's (corners come from four straight sides fitted over their whole length, vertices
     from short sides meeting at sharp tips), with Cauchy tails at ``robust_scale_px`` (a point
     off by a pixel is an outlier, not evidence), its scale estimated from the pose's own
-    residuals. A side's two corners that the other points clearly contradict are left out
-    (a data-area side found a pixel or two off tilts a pose the corners dominate). The
-    pose is the minimum of lower cost; :attr:`Pose.alternative` is its mirror and
-    :attr:`Pose.ambiguity` the mirror's likelihood relative to the pose under that model.
+    residuals. The pose is the minimum of lower cost; :attr:`Pose.alternative` is its mirror
+    and :attr:`Pose.ambiguity` the mirror's likelihood relative to the pose under that model.
 
     What to do with it: ``ambiguity`` near 0 means the pose fits clearly better than its
     mirror; near 1, both fit alike. A pose with ``ambiguous`` set is one of two mirrored poses
@@ -242,10 +239,6 @@ def estimate_pose(
     weights = np.ones(len(obj))
     weights[:4] = corner_weight
     best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
-    side = outlying_side(obj, img, k, dist, weights, robust_scale_px, best) if len(obj) > 4 else None
-    if side is not None:
-        weights[list(side)] = 0.0
-        best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
     rv, tv = best[0], best[1]
     ambiguity = likelihood_ratio(obj, img, k, dist, weights, best, alt)
     angle = normal_angle_deg(best[0], alt[0])

@@ -1,5 +1,5 @@
-"""The planar pose ambiguity: both mirrored poses of a tag, corners the other points contradict,
-and the likelihood of the mirrored pose relative to the chosen one.
+"""The planar pose ambiguity: both mirrored poses of a tag and the likelihood of the mirrored
+pose relative to the chosen one.
 
 A nearly fronto-parallel tag fits two poses tilted opposite ways about the line of sight almost
 equally; on a data area 28–70 px wide their images differ by about a tenth of a pixel. Here:
@@ -8,8 +8,6 @@ equally; on a data area 28–70 px wide their images differ by about a tenth of 
   (each correspondence's weight; corners first, then the points);
 - :func:`mirrored_minima`: the refined pose of lowest cost and its mirror (the other minimum,
   or the mirror as it lies when there is only one);
-- :func:`outlying_side`: a side's two corners that the other points contradict (left out of
-  the pose);
 - :func:`likelihood_ratio`: the mirror's likelihood relative to the pose, the noise scale
   estimated from the pose's residuals.
 
@@ -29,13 +27,11 @@ __all__ = [
     "AMBIGUITY_LIMIT",
     "AMBIGUITY_MIN_ANGLE_DEG",
     "MIN_NOISE_PX",
-    "OUTLYING_SIDE_SCORE",
     "Minimum",
     "ippe",
     "likelihood_ratio",
     "mirrored_minima",
     "normal_angle_deg",
-    "outlying_side",
     "weighted_cost",
     "weighted_lm",
 ]
@@ -61,16 +57,6 @@ AMBIGUITY_LIMIT = 0.1
 #: (several degrees on data areas 28–40 px wide): such a pair is not a choice between two
 #: readings of the scene.
 AMBIGUITY_MIN_ANGLE_DEG = 10.0
-#: A side's two corners are left out of the pose when the other points fit so much better
-#: without them: from the pose of all points, the drop of the others' weighted cost when the
-#: pose is refit without the side, in units of the noise of that fit (a χ²-like score, 4
-#: degrees of freedom: the two corners' coordinates). Measured on 464 data areas 28–70 px wide
-#: whose corners all lie within 0.5 px of their true projections (benchmarks/pose_flips.py
-#: renders, seeds 1 and 2): every side scores under 10.9 (99th percentile 7.1); sides found a
-#: pixel or more off (a white triangle close along a side, blurred into the thin dark strip
-#: between them, pulls the edge inward) score 10–70, and a displaced side tilts a pose that the
-#: corners dominate.
-OUTLYING_SIDE_SCORE = 11.0
 #: Two refined poses whose tag normals are closer than this (degrees) are one minimum.
 _SAME_MINIMUM_DEG = 0.5
 _LM_ITERATIONS = 30
@@ -254,43 +240,6 @@ def _noise_var(obj: _F64, img: _F64, k: _F64, dist: _F64 | None, weights: _F64, 
     r2 = (weights * np.sum((proj.reshape(-1, 2) - img) ** 2, axis=1) / float(weights.max()))[used]
     n = int(used.sum())
     return max(MIN_NOISE_PX**2, float(np.median(r2)) / math.log(4.0) * 2 * n / max(2 * n - 6, 1))
-
-
-def outlying_side(
-    obj: _F64, img: _F64, k: _F64, dist: _F64 | None, weights: _F64, robust_px: float | None, best: Minimum
-) -> tuple[int, int] | None:
-    """A side's two corners that the other correspondences contradict, or None.
-
-    Each side's two corners are left out in turn and the pose refit from ``best`` (the pose of
-    all points); the score of a side is how much lower the others' cost is at that fit than at
-    ``best``, over the fit's noise variance (its cost per degree of freedom, a corner's at least
-    ``MIN_NOISE_PX²``) times the corner weight. The side whose score exceeds
-    :data:`OUTLYING_SIDE_SCORE` by most is returned.
-
-    Parameters
-    ----------
-    obj, img, k, dist, weights, robust_px
-        As for :func:`weighted_cost`; the 4 corners first, corners weigh ``weights.max()``.
-    best : Minimum
-        The pose of all correspondences (:func:`mirrored_minima`).
-
-    Returns
-    -------
-    tuple of int or None
-        The two corner indices (side ``i`` runs from corner ``i`` to corner ``i + 1 mod 4``).
-    """
-    corner_weight = float(weights.max())
-    found: tuple[float, tuple[int, int] | None] = (OUTLYING_SIDE_SCORE, None)
-    for side in ((0, 1), (1, 2), (2, 3), (3, 0)):
-        w = weights.copy()
-        w[list(side)] = 0.0
-        before = weighted_cost(obj, img, best[0], best[1], k, dist, w, robust_px)
-        fit = weighted_lm(obj, img, k, dist, best[0], best[1], w, robust_px)
-        var = max(MIN_NOISE_PX**2, fit[2] / (corner_weight * max(2 * int(np.count_nonzero(w)) - 6, 1)))
-        score = (before - fit[2]) / (corner_weight * var)
-        if score > found[0]:
-            found = (score, side)
-    return found[1]
 
 
 def likelihood_ratio(
