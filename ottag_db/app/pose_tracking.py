@@ -8,7 +8,7 @@ one per video file) and feeds frame by frame, in order.
 
 JSON (``decode --json`` with ``--camera`` and ``--tag-size``; keys added to ``"pose"``):
 
-- ``"ambiguity"``: likelihood of the mirrored pose relative to the reported one, in (0, 1];
+- ``"ambiguity"``: likelihood of the mirrored pose relative to the reported one, in [0, 1];
 - ``"ambiguous"``: true when the frame alone cannot choose between them;
 - ``"alternative"``: the mirrored pose (``rvec``, ``tvec``, ``reprojection_error_px``);
 - ``"alternative_angle_deg"``: angle between the two poses' tag normals;

@@ -66,7 +66,7 @@ class Pose:
       the pose; when there is only one minimum, the mirror of the pose as it lies), with its RMS
       error;
     - ``ambiguity``: likelihood of ``alternative`` relative to the pose under the noise model of
-      :func:`estimate_pose`, in (0, 1]: near 0 the image tells the two apart, near 1 it cannot;
+      :func:`estimate_pose`, in [0, 1]: near 0 the image tells the two apart, near 1 it cannot;
     - ``ambiguous``: ``ambiguity`` at least :data:`~.pose_ambiguity.AMBIGUITY_LIMIT` and the
       two tag normals more than :data:`~.pose_ambiguity.AMBIGUITY_MIN_ANGLE_DEG` apart: the frame
       alone cannot choose the tilt (see :func:`estimate_pose` for what to do);

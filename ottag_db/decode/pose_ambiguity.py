@@ -245,7 +245,7 @@ def _noise_var(obj: _F64, img: _F64, k: _F64, dist: _F64 | None, weights: _F64, 
 def likelihood_ratio(
     obj: _F64, img: _F64, k: _F64, dist: _F64 | None, weights: _F64, best: Minimum, mirror: Minimum
 ) -> float:
-    """Likelihood of ``mirror`` relative to ``best`` under the noise model, in (0, 1].
+    """Likelihood of ``mirror`` relative to ``best`` under the noise model, in [0, 1].
 
     Each correspondence's error is Gaussian with variance ``σ² · corner_weight / weight`` (a
     corner's σ², a vertex's ``corner_weight`` times it; ``corner_weight = weights.max()``), with

@@ -211,3 +211,30 @@ def test_draw_video_needs_one_video_input(runner: CliRunner, dbfile: Path, clip:
     assert res.exit_code == 2 and "exactly one video input" in res.stderr
     res = runner.invoke(cli, ["decode", "--db", str(dbfile), "--draw", str(tmp_path / "o.webm"), str(clip)])
     assert res.exit_code == 2 and "annotated videos are written as" in res.stderr
+
+
+def test_decode_video_json_says_how_each_pose_was_chosen(dbfile: Path, clip: Path, tmp_path: Path) -> None:
+    cam = tmp_path / "cam.json"
+    cam.write_text(json.dumps({"fx": 700, "fy": 700, "cx": 319.5, "cy": 239.5}))
+    res = CliRunner().invoke(
+        cli,
+        [
+            "decode",
+            "--db",
+            str(dbfile),
+            "--json",
+            "--every",
+            "10",
+            "--camera",
+            str(cam),
+            "--tag-size",
+            "5cm",
+            str(clip),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    poses = [d["pose"] for line in res.stdout.splitlines() for d in json.loads(line)["detections"]]
+    assert poses
+    for p in poses:
+        assert p["chosen_by"] in ("frame", "previous_frames") and isinstance(p["ambiguous"], bool)
+        assert 0 <= p["ambiguity"] <= 1 and len(p["alternative"]["rvec"]) == 3

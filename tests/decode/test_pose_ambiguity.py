@@ -121,7 +121,7 @@ def test_ambiguity_is_a_ratio_and_the_flag_follows_it(
     dist: float, tilt: float, axis: float, roll: float, seed: int
 ) -> None:
     pose = _pose(_detection(*_true_pose(dist, tilt, axis, roll), np.random.default_rng(seed)))
-    assert 0.0 < pose.ambiguity <= 1.0
+    assert 0.0 <= pose.ambiguity <= 1.0
     assert pose.ambiguous == (
         pose.ambiguity >= AMBIGUITY_LIMIT and pose.alternative_angle_deg > AMBIGUITY_MIN_ANGLE_DEG
     )
