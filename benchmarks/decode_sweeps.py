@@ -42,6 +42,8 @@ F = 700.0
 TILTS = (0, 10, 20, 30, 40, 50, 60, 65, 70, 75, 78, 80, 82, 84, 85, 86, 87, 88, 89)
 DISTANCES = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0, 8.0)
 TILT_DISTANCE = 1.5  # m
+#: The plot's tilt axis starts here.
+PLOT_FROM_TILT = 60
 
 
 @dataclass
@@ -183,11 +185,13 @@ def main(trials: int, plot: str | None, compare: bool, seed: int, paired: bool =
     direct = sum(r.wrong_direct for rows in tilt_rows + dist_rows for r in rows.values())
     print(f"wrong IDs in all conditions: {wrong}" + (f" (direct: {direct})" if compare else ""))
     if plot:
+        # the tilt panel from PLOT_FROM_TILT on, where the rates part (the printout has every row)
+        steep = [i for i, tilt in enumerate(TILTS) if tilt >= PLOT_FROM_TILT]
         plot_lines(
             plot,
             [
-                (f"decode rate vs tilt (21 cm at {TILT_DISTANCE} m, f = 700 px)", "tilt (°)", "rate", TILTS,
-                 _series(tilt_rows)),
+                (f"decode rate vs tilt (21 cm at {TILT_DISTANCE} m, f = 700 px)", "tilt (°)", "rate",
+                 [TILTS[i] for i in steep], _series([tilt_rows[i] for i in steep])),
                 ("decode rate vs distance (tilt 0–30°)", "distance (m)", "rate", DISTANCES, _series(dist_rows)),
             ],
         )  # fmt: skip
