@@ -7,14 +7,15 @@ Still poses: a 10 cm black square (the data area, the ArUco and the AprilTag bla
 random roll, off the image centre, photographed by the camera of ``benchmarks/pose_accuracy.py``
 (640×480, f = 700 px, no distortion) with its renderer and blur σ 0.6 px / noise σ 2 grey levels:
 our tags are ``ottag-db export`` PDFs rasterized by pypdfium2 (``pose_accuracy.tag_texture``),
-outside the decoder tests' drawing path; the peers are drawn by ``cv2.aruco.generateImageMarker``
-(DICT_6X6_250 and DICT_APRILTAG_36h11) with the same black square. Each pose is rendered once per
-marker, with the same noise seed.
+outside the decoder tests' drawing path; the peers are drawn by ``pose_accuracy.marker_texture``
+(``cv2.aruco.generateImageMarker``, DICT_6X6_250 and DICT_APRILTAG_36h11, marker 3) with the same
+black square. Each pose is rendered once per marker, with the same noise seed.
 
 - ours: ``Detector`` on the bundled lookup, ``estimate_pose`` with the placement ``decode --json``
   uses; its ``ambiguous`` flag is counted and flips are counted among the poses it does not flag;
-- ArUco: ``CORNER_REFINE_SUBPIX``, ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``;
-- AprilTag 3: ``pupil_apriltags.Detector(families="tag36h11")`` with its defaults,
+- ArUco: ``CORNER_REFINE_SUBPIX``, ``cv2.solvePnP(..., SOLVEPNP_IPPE_SQUARE)``
+  (``pose_accuracy.peer_pose``);
+- AprilTag 3: ``pupil_apriltags.Detector("tag36h11")`` with its defaults, its own pose:
   ``detect(..., estimate_tag_pose=True, camera_params, tag_size)``.
 
 A flip is a tag-plane normal error over 10°. Printed per method: poses read, flips, mean and
@@ -33,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import tempfile
 from dataclasses import dataclass
@@ -42,7 +44,8 @@ from typing import Any
 import cv2
 import numpy as np
 from decode_speed import bundled_tags
-from pose_accuracy import SIZE, Texture, errors, render, tag_texture
+from peers import PEERS, PeerReader
+from pose_accuracy import SIZE, Texture, errors, marker_texture, peer_pose, render, tag_texture
 
 from ottag_db.core.placement import tag_placement
 from ottag_db.decode import Detection, Detector, Pose, estimate_pose
@@ -98,34 +101,9 @@ def video_cases(n: int) -> list[Case]:
     return out
 
 
-def marker_texture(dictionary: int) -> Texture:
-    """Marker 3 of an OpenCV dictionary: 800 px black square (8 cells of 100 px), 200 px white margin."""
-    marker = cv2.aruco.generateImageMarker(cv2.aruco.getPredefinedDictionary(dictionary), 3, 800)
-    img = cv2.copyMakeBorder(marker, 200, 200, 200, 200, cv2.BORDER_CONSTANT, value=255)
-    return Texture(img, (200.0, 200.0, 1000.0, 1000.0))
-
-
-def aruco_pose(img: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """ArUco 6×6 marker 3 (sub-pixel corners, ``SOLVEPNP_IPPE_SQUARE``) in our tag frame, or None."""
-    params = cv2.aruco.DetectorParameters()
-    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
-    det = cv2.aruco.ArucoDetector(cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_6X6_250), params)
-    corners, ids, _ = det.detectMarkers(img)
-    if ids is None or 3 not in ids.ravel():
-        return None
-    c = corners[int(np.flatnonzero(ids.ravel() == 3)[0])].reshape(4, 2).astype(np.float64)
-    h = SIZE / 2
-    obj = np.array([[-h, h, 0], [h, h, 0], [h, -h, 0], [-h, -h, 0]], dtype=np.float64)
-    ok, rvec, tvec = cv2.solvePnP(obj, c, K, None, flags=cv2.SOLVEPNP_IPPE_SQUARE)
-    if not ok:
-        return None
-    # ArUco's frame: centre origin, y up, z out of the marker
-    r_ours = cv2.Rodrigues(rvec)[0] @ np.diag([1.0, -1.0, -1.0])
-    return r_ours, tvec.ravel() - r_ours @ np.array([h, h, 0])
-
-
 def apriltag_pose(detector: Any, img: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """AprilTag 3 pose in our tag frame (its frame: centre origin, x right, y down, z into the tag)."""
+    """AprilTag 3's own pose (``estimate_tag_pose``) of marker 3 in our tag frame (its frame:
+    centre origin, x right, y down, z into the tag)."""
     found = [d for d in detector.detect(img, True, K_PARAMS, SIZE) if d.tag_id == 3]
     if not found:
         return None
@@ -143,21 +121,26 @@ class Setup:
     detector: Detector
     aruco: Texture
     april: Texture
+    peers: PeerReader
     april_detector: Any
 
 
 def make_setup(n_tags: int) -> Setup:
     """Export and rasterize ``n_tags`` k = 8 tags (the most printable), build the detectors."""
-    from pupil_apriltags import Detector as AprilDetector
-
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         lookup, records = bundled_tags(folder)
         good = sorted((t for t in records if t.k == 8 and t.unique_min), key=lambda t: -t.printed_mp_unit)
         tags = good[:n_tags]
         textures = [tag_texture(folder / "bundled.sqlite", t, folder) for t in tags]
-    aruco, april = marker_texture(cv2.aruco.DICT_6X6_250), marker_texture(cv2.aruco.DICT_APRILTAG_36h11)
-    return Setup(tags, textures, Detector(lookup), aruco, april, AprilDetector("tag36h11"))
+    from pupil_apriltags import Detector as AprilTagDetector
+
+    peers = PeerReader()  # ArUco with sub-pixel corners (what a pose needs)
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = cv2.aruco.CORNER_REFINE_SUBPIX
+    peers.aruco.setDetectorParameters(params)
+    april = AprilTagDetector("tag36h11")  # its defaults; its own pose
+    return Setup(tags, textures, Detector(lookup), marker_texture(PEERS[0]), marker_texture(PEERS[1]), peers, april)
 
 
 def our_detection(setup: Setup, i: int, case: Case, seed: int) -> Detection | None:
@@ -192,7 +175,7 @@ def still_rows(setup: Setup, cases: list[Case], seed: int, quiet: bool) -> list[
             print(f"\rpose {i + 1}/{len(cases)}", end="", file=sys.stderr, flush=True)
         noise = 1000 * seed + 1000 + i
         d = our_detection(setup, i, case, noise)
-        ap = aruco_pose(render(setup.aruco, case.r_mat, case.t, noise))
+        ap = peer_pose(setup.peers, PEERS[0], render(setup.aruco, case.r_mat, case.t, noise))
         tp = apriltag_pose(setup.april_detector, render(setup.april, case.r_mat, case.t, noise))
         rows.append(
             StillRow(
@@ -285,6 +268,10 @@ def main() -> None:
     )
     report_still(rows)
     report_video(setup, args.frames, args.seed)
+    # pupil_apriltags' detector, after estimate_tag_pose, now and then aborts when it is freed
+    # ("corrupted size vs. prev_size", pupil-labs/apriltags issue 39): leave without freeing it
+    sys.stdout.flush()
+    os._exit(0)
 
 
 if __name__ == "__main__":
