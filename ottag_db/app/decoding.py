@@ -254,6 +254,7 @@ def detection_json(
         "margin_px": round(d.margin_px, 4),
         "corrected_flips": d.corrected_flips,
         "model_correlation": None if d.model_correlation is None else round(d.model_correlation, 4),
+        "corners_seen": None if d.corners_seen is None else list(d.corners_seen),
     }
     if camera is not None and tag_size is not None:
         placement = None if d.model_points is None else tag_placement(d.model_points)

@@ -34,7 +34,15 @@ from ottag_db.decode.image import to_gray
 from ottag_db.decode.model_budget import rank_for_model, ranking_score
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
-from ottag_db.decode.quads import around_detection, outlined_before, same_quad, same_tag, seen_before, within_detection
+from ottag_db.decode.quads import (
+    around_detection,
+    in_frame_corners,
+    outlined_before,
+    same_quad,
+    same_tag,
+    seen_before,
+    within_detection,
+)
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
 from ottag_db.decode.splitting import FRAME_SEARCH, SearchBudget
@@ -262,7 +270,7 @@ class Detector:
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):
                     detections.append(result)
-        return detections, rejected
+        return [in_frame_corners(d, gray.shape) for d in detections], rejected
 
 
 def read_quad(

@@ -51,6 +51,7 @@ def identify(
     catalogue: Catalogue,
     clock: StageClock,
     print_required: frozenset[str] = frozenset(),
+    occluded: bool = False,
 ) -> Detection | Rejection:
     """ID, lookup and verification of one point hypothesis.
 
@@ -71,6 +72,9 @@ def identify(
     print_required : frozenset of str, optional
         IDs that must show their tag as printed (layout and placement) at any view: those an
         earlier reading of the same data area was refused as not printed.
+    occluded : bool, optional
+        Something crossed the data area's border (:attr:`~ottag_db.decode.types.DataArea.intrusions`):
+        whatever the ID, the tag must show its print at any view.
 
     Returns
     -------
@@ -97,13 +101,13 @@ def identify(
     lam = lambda_text(best_mat)
     if table.margin < p.min_margin_px:
         low = Rejection("low_margin", f"margin {table.margin:.2f} px", lam)
-        if not p.verify or p.soft_max_flips == 0:
+        if not p.verify or p.soft_max_flips == 0 or occluded:  # (soft decoding needs every triangle)
             return low
         return _soft_decode(pts, lines, corners, quad, table, low, catalogue, clock)
     minimal = _minimal(orderings)
     entry = catalogue.lookup.get(lam)
     if entry is None:
-        if not p.allow_unknown:
+        if not p.allow_unknown or occluded:  # (an occluded tag must show its print: unknown has none)
             return Rejection("unknown_id", "", lam)
         return Detection(
             lam, k, None, None, quad.polarity, pts[list(minimal[0])], None,
@@ -112,14 +116,14 @@ def identify(
     member = for_polarity(entry, quad.polarity, lam)
     if isinstance(member, Rejection):
         return member
-    required = lam in print_required
+    required = occluded or lam in print_required
     # Without verification the order type alone decides (the paper's rule): a tag drawn with
     # other triangles or margins reads at any view, so the print is never required.
     printed_only = p.verify and member.layouts and (required or shows_print(quad, p))
     if printed_only:
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is None:
-            view = "refused as not printed before" if required else "oblique or small view"
+            view = "occluded" if occluded else "refused as not printed before" if required else "oblique or small view"
             detail = f"{view}: the detected triangles are not this tag's layout"
             return Rejection("verification", detail, lam, not_printed=frozenset({lam}))
         member, minimal = printed

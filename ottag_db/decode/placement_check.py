@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "CORNERS_TO_TRUST_PRINT",
     "PLACEMENT_BOUND_FACTOR",
     "PLACEMENT_MAX_UNITS",
     "UNIT_SQUARE",
@@ -27,6 +28,7 @@ __all__ = [
     "apply_homography",
     "data_area_depths",
     "placement_error",
+    "printed_corners",
     "square_homography",
 ]
 
@@ -166,3 +168,54 @@ def placement_error(
     image_px = float(np.abs((nrm * mapped[rep]).sum(axis=1) - off).max())
     plane = float(np.sqrt(((back - placed) ** 2).sum(axis=1)).max())
     return PlacementError(image_px, plane)
+
+
+#: Corners that must agree with the printed placement before it is trusted for the others: with
+#: three of four where the print puts them, the fourth that is not is hidden (a finger, a
+#: frame edge), not a sign of another drawing.
+CORNERS_TO_TRUST_PRINT = 3
+
+
+def printed_corners(placement: _F64, hmat: _F64, corners: _F64, tolerance_px: float) -> tuple[_F64, NDArray[np.bool_]]:
+    """The data-area corners where the printed placement puts them, and which were seen there.
+
+    The stored placement maps the realization's plane to data-area units; through the
+    homography of a reading (realization plane → image) the data area's corners follow from
+    the points alone. A measured corner that agrees within ``tolerance_px`` was seen; when at
+    least :data:`CORNERS_TO_TRUST_PRINT` agree, the others are hidden or outside the frame and
+    take the printed position. Otherwise (another drawing's placement, or no confirmed print)
+    every measured corner stands and counts as seen.
+
+    Parameters
+    ----------
+    placement : numpy.ndarray
+        ``(2, 3)`` affine map, realization plane → data-area units.
+    hmat : numpy.ndarray
+        ``(3, 3)`` homography, realization plane → image.
+    corners : numpy.ndarray
+        ``(4, 2)`` measured corners (image pixels, any order).
+    tolerance_px : float
+        Largest distance of a seen corner from its printed position.
+
+    Returns
+    -------
+    corners : numpy.ndarray
+        ``(4, 2)`` in the order of ``corners``: measured where seen, printed where not.
+    seen : numpy.ndarray
+        ``(4,)`` bool.
+    """
+    affine = np.vstack([placement, [0.0, 0.0, 1.0]])
+    try:
+        unit_to_image = hmat @ np.linalg.inv(affine)
+    except np.linalg.LinAlgError:
+        return corners, np.ones(4, dtype=bool)
+    printed = apply_homography(unit_to_image, UNIT_SQUARE)
+    if not np.isfinite(printed).all():
+        return corners, np.ones(4, dtype=bool)
+    # each measured corner against the nearest printed one (the quad's corner order is its own)
+    dist = np.linalg.norm(corners[:, None, :] - printed[None, :, :], axis=2)
+    nearest = printed[dist.argmin(axis=1)]
+    seen = dist.min(axis=1) <= tolerance_px
+    if int(seen.sum()) < CORNERS_TO_TRUST_PRINT or len(set(dist.argmin(axis=1).tolist())) < 4:
+        return corners, np.ones(4, dtype=bool)
+    return np.where(seen[:, None], corners, nearest), seen

@@ -180,7 +180,8 @@ def estimate_pose(
     A nearly fronto-parallel tag fits two poses tilted opposite ways about the line of sight
     almost equally (the planar ambiguity: on a data area 28–70 px wide their images differ by
     a tenth of a pixel or so). Both IPPE solutions of all correspondences (4 corners, then the
-    matched points) are refined by a weighted Levenberg–Marquardt, and their mirrors when both
+    matched points; corners not seen, ``Detection.corners_seen``, weigh nothing beside the
+    points) are refined by a weighted Levenberg–Marquardt, and their mirrors when both
     end in one minimum (:mod:`~ottag_db.decode.pose_ambiguity`). The noise model: each point's
     error is Gaussian with a spread per kind, a corner's ``1/sqrt(corner_weight)`` of a
     vertex's (corners come from four straight sides fitted over their whole length, vertices
@@ -238,6 +239,10 @@ def estimate_pose(
 
     weights = np.ones(len(obj))
     weights[:4] = corner_weight
+    if detection.corners_seen is not None and len(obj) > 4:
+        # a corner not seen (hidden, outside the frame) is where the points put it: no evidence
+        # of its own beside them
+        weights[:4][~np.asarray(detection.corners_seen, dtype=bool)] = 0.0
     best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
     rv, tv = best[0], best[1]
     ambiguity = likelihood_ratio(obj, img, k, dist, weights, best, alt)

@@ -4,6 +4,7 @@ of one frame are the same data area or the same tag (the detector's memory withi
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +15,7 @@ __all__ = [
     "OUTLINE_MOVED_PX",
     "around_detection",
     "clockwise",
+    "in_frame_corners",
     "outlined_before",
     "same_quad",
     "same_tag",
@@ -243,3 +245,31 @@ def shows_print(quad: Quad, params: DetectorParams) -> bool:
     if params.layout_check_ratio <= 0:
         return False
     return squeeze(quad) <= params.layout_check_ratio or math.sqrt(quad.area) < params.print_check_side_px
+
+
+def in_frame_corners(detection: Detection, shape: tuple[int, ...]) -> Detection:
+    """The detection with its corners outside the frame marked as not seen.
+
+    A data area cut by the frame's edge is outlined by the lines of its visible sides; the
+    corner beyond the edge is where they meet, or where the print puts it, never seen.
+
+    Parameters
+    ----------
+    detection : Detection
+        A detection of a frame of ``shape``.
+    shape : tuple of int
+        ``(H, W)`` of the frame.
+
+    Returns
+    -------
+    Detection
+        ``detection`` itself when every corner lies inside the frame (pixel centres from 0 to
+        W − 1 and H − 1, half a pixel of slack).
+    """
+    h, w = shape[:2]
+    x, y = detection.corners[:, 0], detection.corners[:, 1]
+    inside = (x >= -0.5) & (x <= w - 0.5) & (y >= -0.5) & (y <= h - 0.5)
+    if inside.all():
+        return detection
+    seen = detection.corners_seen if detection.corners_seen is not None else (True,) * 4
+    return replace(detection, corners_seen=tuple(bool(s and i) for s, i in zip(seen, inside, strict=True)))

@@ -128,6 +128,7 @@ def read_area(
     # two triangles merged read as a 7-point type, refused 21 px off its placement, and then
     # as the same type by the next decomposition, 1.4 px off the fit, within the bound)
     not_printed = print_required
+    occluded = area.intrusions > 0  # something crossed the border: the tag must show its print
     corners_l: _F64 | None = None
     corners = quad.corners  # replaced by the refined corners before any identification
     for dec in then_alternatives(decomps, more):
@@ -161,7 +162,7 @@ def read_area(
             if to_frame is not None:
                 pts = to_frame.points_to_frame(pts)
             lines = [(normal[ids], offset[ids]) for ids in hyp.line_ids]
-            result = identify(pts, lines, corners, frame_quad or quad, catalogue, clock, not_printed)
+            result = identify(pts, lines, corners, frame_quad or quad, catalogue, clock, not_printed, occluded)
             clock.lap("identify")
             if isinstance(result, Detection):
                 if points_fit(result, frame_quad or quad, catalogue.params):

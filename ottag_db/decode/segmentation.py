@@ -41,6 +41,18 @@ MAX_DECOMPOSITIONS = 10
 MAX_TRIANGLES = 12
 #: Detail of the rejection when no decomposition was found at all.
 NO_DECOMPOSITION = "a component is not a union of triangles"
+#: Data areas whose side (px) is at least this are cleared of components that cross their
+#: border (``_without_intrusions``). A printed triangle keeps a tenth of the side from the
+#: border, but the quad of a small, blurred data area can be a few px off (an inverted tag 55 px
+#: wide, its white area shrunk by blur): below this, a triangle's tip brought to the edge
+#: touches as many edge pixels as a finger 4–6 % of the side wide does.
+INTRUSION_MIN_SIDE = 80.0
+#: A component crosses the data area's edge when it runs along the interior's outermost pixels
+#: for this fraction of the side: a finger or bar 4–6 % of the side wide does, a triangle's tip
+#: brought near the edge by a rough quad touches it at a pixel or two.
+INTRUSION_MIN_WIDTH = 0.03
+#: 3 × 3 cross: the interior's outermost pixels (see ``_without_intrusions``).
+_CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 #: A component whose long outline edges all lie within this angle (degrees, in data-area
 #: units; plus the turn of a pixel across the edge) of the data area's sides is no union of
 #: triangles (:func:`rectilinear`). Every triangle has a side off both axes: of the 19,988
@@ -109,10 +121,38 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
         return Rejection("low_contrast", "" if split is None else f"{split.contrast:.0f} grey levels")
     level = 0.5 * (split.dark + split.bright)
     fg: NDArray[Any] = cv2.bitwise_and(cv2.threshold(roi, level, 255, cv2.THRESH_BINARY)[1], mask)
+    fg, intrusions = _without_intrusions(fg, mask, side) if side >= INTRUSION_MIN_SIDE else (fg, 0)
     frac = cv2.countNonZero(fg) / max(cv2.countNonZero(mask), 1)
     if frac < 0.01 or frac > 0.75:
         return Rejection("no_triangles", f"bright fraction {frac:.2f}")
-    return DataArea(roi, origin, ql, side, level, fg)
+    return DataArea(roi, origin, ql, side, level, fg, intrusions)
+
+
+def _without_intrusions(fg: NDArray[Any], interior: NDArray[Any], side: float) -> tuple[NDArray[Any], int]:
+    """``fg`` without its components that cross the interior's edge, and how many there were.
+
+    A printed tag keeps every point, and so every triangle, at least
+    :data:`~ottag_db.core.placement.DEFAULT_INNER_MARGIN` (a tenth of the side) inside its data
+    area, while the band left out of the interior is 2 % of the side: a component that runs
+    along the interior's outermost pixels for :data:`INTRUSION_MIN_WIDTH` of the side (3 px at
+    least) comes
+    from outside — a finger, a bar, a pen across the tag (a triangle's tip that a rough quad
+    brings near the edge touches it at a pixel or two). It is no triangle; the reading without
+    it must show the tag as printed (see :attr:`~ottag_db.decode.types.DataArea.intrusions`).
+    """
+    edge = cv2.bitwise_and(interior, cv2.bitwise_not(cv2.erode(interior, _CROSS)))
+    touching = cv2.bitwise_and(fg, edge)
+    width = max(3.0, INTRUSION_MIN_WIDTH * side)
+    if cv2.countNonZero(touching) < width:
+        return fg, 0
+    count, labels = cv2.connectedComponents(fg, connectivity=8)
+    along = np.bincount(labels[touching > 0], minlength=count)
+    crossing = np.flatnonzero(along >= width)
+    crossing = crossing[crossing > 0]
+    if not len(crossing):
+        return fg, 0
+    kept: NDArray[Any] = np.where(np.isin(labels, crossing), 0, fg).astype(np.uint8)
+    return kept, len(crossing)
 
 
 def decompose(

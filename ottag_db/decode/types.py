@@ -120,7 +120,11 @@ class Detection:
       at a grazing view (:mod:`ottag_db.decode.model_match`: the stored tags projected through
       the quad, the best aligned to the image) the correlation of the aligned tag with the
       image. Its ``points`` are then the stored realization mapped by ``homography`` (not
-      measured one by one), and ``reprojection_error_px`` is None.
+      measured one by one), and ``reprojection_error_px`` is None;
+    - ``corners_seen``: per corner of ``corners``, whether it was seen where the tag's printed
+      placement puts it; a corner that was not (hidden, outside the frame) is given at its
+      printed position, from the points (:func:`~ottag_db.decode.placement_check.printed_corners`).
+      None when the placement is unknown (a dictionary file) or for a reading by model.
     """
 
     lambda_text: str
@@ -136,6 +140,7 @@ class Detection:
     margin_px: float
     corrected_flips: int | None = None
     model_correlation: float | None = None
+    corners_seen: tuple[bool, ...] | None = None
 
     @property
     def center(self) -> tuple[float, float]:
@@ -438,7 +443,10 @@ class DataArea:
     - ``origin``: image position ``(x, y)`` of ROI pixel ``(0, 0)``;
     - ``quad``: ``(4, 2)`` the candidate corners in ROI coordinates; ``side``: √area (px);
     - ``level``: grey level halfway between the dark and the bright class;
-    - ``fg``: uint8 mask (255 = bright) of the triangles inside the interior of the quad.
+    - ``fg``: uint8 mask (255 = bright) of the triangles inside the interior of the quad;
+    - ``intrusions``: bright components left out of ``fg`` because they cross the quad's
+      border (a finger or bar across the tag; no printed triangle comes near the border): a
+      reading of such a data area must show the tag as printed, layout and placement.
     """
 
     roi: NDArray[np.uint8]
@@ -447,6 +455,7 @@ class DataArea:
     side: float
     level: float
     fg: NDArray[np.uint8]
+    intrusions: int = 0
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from ottag_db.decode.placement_check import (
     PlacementError,
     apply_homography,
     placement_error,
+    printed_corners,
 )
 from ottag_db.decode.quads import shows_print
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
@@ -194,16 +195,31 @@ def tag_plane_corner_order(corners: _F64, plane: list[list[float]]) -> _F64:
     numpy.ndarray
         ``(4, 2)``; ``corners`` unchanged when a mapped corner is not finite.
     """
+    return corners[tag_plane_order(plane)]
+
+
+def tag_plane_order(plane: list[list[float]]) -> list[int]:
+    """The order that puts corners mapped to the tag plane top-left, top-right, bottom-right,
+    bottom-left (:func:`tag_plane_corner_order`); ``[0, 1, 2, 3]`` when one is not finite.
+
+    Parameters
+    ----------
+    plane : list
+        ``4 × [x, y]`` corners in the tag plane (x right, y down).
+
+    Returns
+    -------
+    list of int
+    """
     if not all(math.isfinite(v) for xy in plane for v in xy):
-        return corners
+        return [0, 1, 2, 3]
     gx = sum(x for x, _ in plane) / 4
     gy = sum(y for _, y in plane) / 4
     ang = [math.atan2(y - gy, x - gx) for x, y in plane]
     # start at the corner seen up-left of the centre in the tag plane (−135°)
     wrapped = [abs(math.remainder(a + 0.75 * math.pi, 2 * math.pi)) for a in ang]
     start = wrapped.index(min(wrapped))
-    order = sorted(range(4), key=lambda c: (ang[c] - ang[start]) % (2 * math.pi))
-    return corners[order]
+    return sorted(range(4), key=lambda c: (ang[c] - ang[start]) % (2 * math.pi))
 
 
 @dataclass(frozen=True)
@@ -353,6 +369,11 @@ def assess(
         else:
             fits = passing
     best = min(fits, key=lambda f: f.err / bound + quad_w * min(f.par, 1e6) / max(p.max_quad_error, 1e-9))
+    plc = entry.placements[best.real] if best.real < len(entry.placements) else None
+    seen = None
+    if plc is not None:  # a corner the print puts elsewhere is hidden: it takes the printed position
+        corners, seen_array = printed_corners(plc, best.hmat, corners, bound)
+        seen = tuple(bool(v) for v in seen_array[tag_plane_order(best.plane)])
     detection = Detection(
         lambda_text=lambda_text,
         k=entry.k,
@@ -365,6 +386,7 @@ def assess(
         homography=best.hmat,
         reprojection_error_px=float(np.sqrt(((best.mapped - best.dst) ** 2).sum(axis=1)).max()),
         margin_px=margin,
+        corners_seen=seen,
     )
     return Assessment(detection, error, bound)
 

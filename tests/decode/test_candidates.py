@@ -97,7 +97,8 @@ def test_a_thin_data_area_notched_by_its_triangles_is_outlined_by_its_hull(print
     """A normal tag at 86° on the usual frame: its white triangles blur into the white quiet
     zone and notch the dark data area's outline, which is no quad. The thin-quad pass outlines
     the dark region's hull instead, within a pixel of the true corners, and the tag reads from
-    it; without the hull it does not."""
+    it; without the hull that pass finds nothing (the half-resolution pass's four straightest
+    runs of the notched outline may still read the tag, never another)."""
     lookup, tags = printed
     tag, image = grazing_frame(tags, 233, 86.0, "normal")
     truth = grazing_corners(tags, 233, 86.0, "normal")
@@ -106,7 +107,7 @@ def test_a_thin_data_area_notched_by_its_triangles_is_outlined_by_its_hull(print
     assert [d.lambda_text for d in Detector(lookup).detect(image)] == [tag.lambda_text]
     monkeypatch.setattr(candidates, "NOTCHED_MIN_FILL", 2.0)  # no hull fills twice its area
     assert find_quads(image, "adaptive_thin", DetectorParams()) == []
-    assert Detector(lookup).detect(image) == []
+    assert all(d.lambda_text == tag.lambda_text for d in Detector(lookup).detect(image))
 
 
 @pytest.mark.parametrize("seed", [67, 164])

@@ -184,7 +184,10 @@ def test_a_square_markers_cells_get_no_alternative_search() -> None:
     hom = cv2.getPerspectiveTransform(corners.astype(np.float32), seen_corners)
     image = cv2.warpPerspective(marker, hom, (180, 180), flags=cv2.INTER_AREA, borderValue=255)
     image = cv2.GaussianBlur(image, (0, 0), 0.8)
-    seen = cv2.perspectiveTransform(corners.reshape(1, 4, 2), hom)[0]
+    # the marker's outline (its cells touch the inner square, and would be left out there as
+    # crossing the border)
+    outline = np.array([[0.0, 0.0], [160.0, 0.0], [160.0, 160.0], [0.0, 160.0]]) - 0.5
+    seen = cv2.perspectiveTransform(outline.reshape(1, 4, 2), hom)[0]
     quad = Quad("normal", seen, float(cv2.contourArea(seen.astype(np.float32))))
     area = segment(image, quad, DetectorParams())
     assert isinstance(area, DataArea)
