@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.image import frame_has_contrast
-from ottag_db.decode.placement_check import UNIT_SQUARE
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.quads import clockwise, same_quad, squeeze
 from ottag_db.decode.types import DetectorParams, Quad
 
@@ -92,6 +92,11 @@ _LINES_CONSIDERED = 7
 #: regions of foliage, gravel and text mostly much less.
 LINES_MIN_SOLIDITY = 0.6
 _LINES_AREA_RATIO = (0.8, 1.3)
+#: The same for an inverted tag's quiet zone opened into a C (``ring``): it fills 0.56 of its
+#: outline (0.45–0.75 under blur and an occluder), and 0.35–0.75 of its hull (a solid region
+#: is no ring).
+_RING_AREA_RATIO = (1 / 0.75, 1 / 0.45)
+_RING_SOLIDITY = (0.35, 0.75)
 #: A run of collinear outline edges: (support px, a point x, y, direction x, y, first edge).
 _Run = tuple[float, float, float, float, float, int]
 #: The printed quiet zone's outline in data-area units (corners in the unit square's order).
@@ -176,6 +181,8 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
         outlines.append((c, inverted, len(c), bool(hier[0][i][2] >= 0)))
+    if kind in ("adaptive", "otsu") and want_inverted:
+        outlines.extend((c, True, len(c), False) for c in _holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
     joined_inverted = kind == "adaptive_thin"
@@ -190,9 +197,14 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         lines = (approx is None or cut) and kind in ("adaptive", "otsu") and perimeter >= 2 * min_len
         # triangles first: only a dark region holding bright holes is a normal data area (an
         # inverted one, a hole itself, holds separate regions: its solidity decides below)
+        opened = lines and not inverted and not holds_holes and want_inverted
         lines = lines and (inverted or holds_holes)
         if lines:
             approx = _lines_outline(c, perimeter, mask.shape)
+        elif opened:  # an inverted tag's quiet zone, opened: its data area inside
+            outer = _lines_outline(c, perimeter, mask.shape, ring=True)
+            approx = None if outer is None else _data_area_inside(outer)
+            inverted = lines = approx is not None
         if approx is None:
             continue
         q = approx.reshape(4, 2).astype(np.float64)
@@ -223,7 +235,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         ):
             continue
         polarity: Polarity = "inverted" if inverted else "normal"
-        cand = Quad(polarity, clockwise(q), area)
+        cand = Quad(polarity, clockwise(q), area, inferred=lines)
         if kind == "bright_holes" and squeeze(cand) > p.rectify_max_ratio:
             continue
         if not any(same_quad(cand, o) for o in quads):
@@ -244,7 +256,9 @@ def _quad_outline(contour: NDArray[Any], perimeter: float) -> NDArray[Any] | Non
     return approx
 
 
-def _lines_outline(contour: NDArray[Any], perimeter: float, shape: tuple[int, ...]) -> NDArray[Any] | None:
+def _lines_outline(
+    contour: NDArray[Any], perimeter: float, shape: tuple[int, ...], ring: bool = False
+) -> NDArray[Any] | None:
     """The quad of an outline's four straightest runs, or None.
 
     A finger or bar across a data area's border adds a spike or a notch to its outline, a frame
@@ -263,6 +277,10 @@ def _lines_outline(contour: NDArray[Any], perimeter: float, shape: tuple[int, ..
         Its length, px.
     shape : tuple of int
         ``(H, W)`` of the image the contour was traced in.
+    ring : bool, optional
+        The region is an inverted tag's dark quiet zone opened by a finger or the frame's edge
+        (a ring cut into a C, the white data area no longer a hole of it): the quad is its outer
+        outline, which a ring fills to ``1 − 1 / (1 + 2 · QUIET_ZONE)²`` (0.56).
 
     Returns
     -------
@@ -270,7 +288,11 @@ def _lines_outline(contour: NDArray[Any], perimeter: float, shape: tuple[int, ..
         ``(4, 1, 2)`` float32 corners.
     """
     region = abs(float(cv2.contourArea(contour)))
-    if region < LINES_MIN_SOLIDITY * abs(float(cv2.contourArea(cv2.convexHull(contour)))):
+    (least_solid, most_solid), (least, most) = (
+        (_RING_SOLIDITY, _RING_AREA_RATIO) if ring else ((LINES_MIN_SOLIDITY, 1.0), _LINES_AREA_RATIO)
+    )
+    solidity = region / max(abs(float(cv2.contourArea(cv2.convexHull(contour)))), 1.0)
+    if not least_solid <= solidity <= most_solid:
         return None  # ragged: texture, not a square with a spike, a notch or a cut corner
     tol = max(1.5, _LINE_DISTANCE * perimeter)
     poly: list[list[float]] = cv2.approxPolyDP(contour, tol, True).reshape(-1, 2).astype(float).tolist()
@@ -313,11 +335,46 @@ def _lines_outline(contour: NDArray[Any], perimeter: float, shape: tuple[int, ..
         if quad is None:
             continue
         area = abs(float(cv2.contourArea(quad)))
-        if _LINES_AREA_RATIO[0] * region <= area <= _LINES_AREA_RATIO[1] * region:
+        if least * region <= area <= most * region:
             best_quad, best_support = quad, support
     if best_quad is None or best_support < LINES_MIN_SUPPORT * cv2.arcLength(best_quad, True):
         return None
     return best_quad
+
+
+def _holes_at_frame_edge(mask: NDArray[Any], min_len: float) -> list[NDArray[Any]]:
+    """Bright regions of the dark ``mask`` that reach the frame's edge, as outlines of at least
+    ``min_len`` points.
+
+    An inverted data area with a corner beyond the frame's edge is no hole of the dark mask: its
+    dark quiet zone no longer closes around it. Traced in the mask padded with a dark border, it
+    is one again (so is the background, which no quad outlines: its runs lie along the edge).
+    """
+    if not (mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any()):
+        return []  # nothing dark reaches the edge: every bright region there is background
+    padded = cv2.copyMakeBorder(mask, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=255)
+    contours, hier = cv2.findContours(padded, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE, offset=(-1, -1))
+    if hier is None:
+        return []
+    h, w = mask.shape[:2]
+    out = []
+    for c, (_, _, _, parent) in zip(contours, hier[0], strict=True):
+        if parent < 0 or len(c) < min_len:
+            continue
+        x, y = c[:, 0, 0], c[:, 0, 1]
+        if x.min() <= 0 or y.min() <= 0 or x.max() >= w - 1 or y.max() >= h - 1:
+            out.append(c)
+    return out
+
+
+def _data_area_inside(quiet: NDArray[Any]) -> NDArray[Any] | None:
+    """The data area inside a quiet zone's outer outline (``(4, 1, 2)``), as printed."""
+    to_frame = square_homography(clockwise(quiet.reshape(4, 2).astype(np.float64)))
+    if to_frame is None:
+        return None
+    q = QUIET_ZONE / (1 + 2 * QUIET_ZONE)
+    inner = apply_homography(to_frame, q + (1 - 2 * q) * UNIT_SQUARE)
+    return inner.astype(np.float32).reshape(4, 1, 2) if np.isfinite(inner).all() else None
 
 
 def _at_frame_edge(quad: NDArray[Any], shape: tuple[int, ...]) -> bool:

@@ -360,7 +360,7 @@ def read_upsampled(
     # pixel centres: up pixel u lies at x = x0 + (u + 0.5) / f − 0.5 of the image
     shift = np.array([x0 + 0.5 / f - 0.5, y0 + 0.5 / f - 0.5])
     clock.lap("upsample")
-    up_quad = Quad(quad.polarity, (q - shift) * f, quad.area * f * f)
+    up_quad = Quad(quad.polarity, (q - shift) * f, quad.area * f * f, quad.inferred)
     res = read_quad(up, up_quad, catalogue, None, clock, first.not_printed)
     if not isinstance(res, Detection):
         return replace(first, not_printed=res.not_printed)  # what this reading refused too

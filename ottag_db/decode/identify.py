@@ -74,7 +74,8 @@ def identify(
         earlier reading of the same data area was refused as not printed.
     occluded : bool, optional
         Something crossed the data area's border (:attr:`~ottag_db.decode.types.DataArea.intrusions`):
-        whatever the ID, the tag must show its print at any view.
+        whatever the ID, the tag must show its print at any view (so must a quad whose corners
+        were inferred, :attr:`~ottag_db.decode.types.Quad.inferred`).
 
     Returns
     -------
@@ -91,6 +92,7 @@ def identify(
         the stored placement prints them.
     """
     p = catalogue.params
+    occluded = occluded or quad.inferred
     k = len(pts)
     if k < 3 or k > LAYOUT_MAX_K or (k not in catalogue.ks and not p.allow_unknown):
         return Rejection("point_count", f"{k} points")

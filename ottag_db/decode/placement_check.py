@@ -176,15 +176,18 @@ def placement_error(
 CORNERS_TO_TRUST_PRINT = 3
 
 
-def printed_corners(placement: _F64, hmat: _F64, corners: _F64, tolerance_px: float) -> tuple[_F64, NDArray[np.bool_]]:
+def printed_corners(
+    placement: _F64, hmat: _F64, corners: _F64, tolerance_px: float, print_shown: bool = False
+) -> tuple[_F64, NDArray[np.bool_]]:
     """The data-area corners where the printed placement puts them, and which were seen there.
 
     The stored placement maps the realization's plane to data-area units; through the
     homography of a reading (realization plane → image) the data area's corners follow from
     the points alone. A measured corner that agrees within ``tolerance_px`` was seen; when at
-    least :data:`CORNERS_TO_TRUST_PRINT` agree, the others are hidden or outside the frame and
-    take the printed position. Otherwise (another drawing's placement, or no confirmed print)
-    every measured corner stands and counts as seen.
+    least :data:`CORNERS_TO_TRUST_PRINT` agree, or when the reading showed the print already
+    (``print_shown``: its triangles and points are the stored layout and placement), the others
+    are hidden or outside the frame and take the printed position. Otherwise (another drawing's
+    placement, or no confirmed print) every measured corner stands and counts as seen.
 
     Parameters
     ----------
@@ -196,6 +199,8 @@ def printed_corners(placement: _F64, hmat: _F64, corners: _F64, tolerance_px: fl
         ``(4, 2)`` measured corners (image pixels, any order).
     tolerance_px : float
         Largest distance of a seen corner from its printed position.
+    print_shown : bool, optional
+        The reading was checked against the stored layout and placement and passed.
 
     Returns
     -------
@@ -216,6 +221,19 @@ def printed_corners(placement: _F64, hmat: _F64, corners: _F64, tolerance_px: fl
     dist = np.linalg.norm(corners[:, None, :] - printed[None, :, :], axis=2)
     nearest = printed[dist.argmin(axis=1)]
     seen = dist.min(axis=1) <= tolerance_px
+    if print_shown:  # every corner against the printed one of the same turn, however far
+        matched = printed[_match_corners(corners, printed)]
+        seen = np.linalg.norm(corners - matched, axis=1) <= tolerance_px
+        return np.where(seen[:, None], corners, matched), seen
     if int(seen.sum()) < CORNERS_TO_TRUST_PRINT or len(set(dist.argmin(axis=1).tolist())) < 4:
         return corners, np.ones(4, dtype=bool)
     return np.where(seen[:, None], corners, nearest), seen
+
+
+def _match_corners(corners: _F64, printed: _F64) -> NDArray[np.intp]:
+    """For each measured corner the index of its printed corner: the cyclic assignment (either
+    direction) of least total distance, which holds when corners are far off."""
+    orders = [np.roll(base, -r) for base in (np.arange(4), np.arange(4)[::-1]) for r in range(4)]
+    costs = [float(np.linalg.norm(corners - printed[order], axis=1).sum()) for order in orders]
+    best: NDArray[np.intp] = orders[int(np.argmin(costs))]
+    return best

@@ -229,7 +229,7 @@ def _read_view(
     corners refined in the view, mapped to the frame (None when no decomposition was found).
     ``print_required``: the IDs earlier readings of the candidate refused as not printed."""
     vp = view_params(catalogue.params, view.size / math.sqrt(max(quad.area, 1.0)))
-    vquad = Quad(quad.polarity, view.corners, view.size * view.size)
+    vquad = Quad(quad.polarity, view.corners, view.size * view.size, quad.inferred)
     result, corners = read_area(
         view.image, vquad, vp, catalogue, RECTIFIED_SEARCH, clock, to_frame=view, frame_quad=quad,
         print_required=print_required,

@@ -391,11 +391,14 @@ class DetectorParams:
 @dataclass(frozen=True)
 class Quad:
     """A candidate data area: ``corners`` ``(4, 2)`` clockwise on screen (image pixels,
-    starting nearest the image origin), its ``area`` (px²) and the ``polarity`` it was found in."""
+    starting nearest the image origin), its ``area`` (px²) and the ``polarity`` it was found in;
+    ``inferred``: its outline was no quad (partly hidden, or cut by the frame's edge) and the
+    corners were inferred from the visible sides, so a reading must show the tag as printed."""
 
     polarity: Polarity
     corners: _F64
     area: float
+    inferred: bool = False
 
 
 @dataclass(frozen=True)

@@ -372,7 +372,8 @@ def assess(
     plc = entry.placements[best.real] if best.real < len(entry.placements) else None
     seen = None
     if plc is not None:  # a corner the print puts elsewhere is hidden: it takes the printed position
-        corners, seen_array = printed_corners(plc, best.hmat, corners, bound)
+        shown = p.verify and (printed or shows_print(quad, p))  # layout and placement were checked
+        corners, seen_array = printed_corners(plc, best.hmat, corners, bound, shown)
         seen = tuple(bool(v) for v in seen_array[tag_plane_order(best.plane)])
     detection = Detection(
         lambda_text=lambda_text,

@@ -72,13 +72,15 @@ def _tag_and_side(bundled, seed: int, tilt: float, polarity: str = "normal"):
     return lookup, tag, spec, rng
 
 
+@pytest.mark.parametrize("polarity", ["normal", "inverted"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_a_finger_across_a_side_is_left_out_of_the_data_area(bundled, seed) -> None:
+def test_a_finger_across_a_side_is_left_out_of_the_data_area(bundled, seed, polarity) -> None:
     """A grey bar 6 % of the side wide across the middle of a side, 6 % into the data area: the
     outline is the four lines of the visible sides (the bar's spike is no side) and the bar's
     part inside the data area is no triangle (it crosses the border); the reading must then show
-    the tag as printed, and does."""
-    lookup, tag, spec, rng = _tag_and_side(bundled, seed, 25.0)
+    the tag as printed, and does. Inverted, the bar opens the dark quiet zone into a C and the
+    white data area is no hole of it: the data area is inferred inside the C's outline."""
+    lookup, tag, spec, rng = _tag_and_side(bundled, seed, 25.0, polarity)
     frame = sc.render_scene((480, 640), [spec], rng, blur=0.6, noise=1.5).image
     bar = np.array([[0.47, -0.9], [0.53, -0.9], [0.53, 0.06], [0.47, 0.06]])
     pts = np.round(sc.project(spec.homography, bar) * 16).astype(np.int32)
