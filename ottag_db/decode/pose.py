@@ -153,6 +153,12 @@ def _rms(obj: _F64, img: _F64, rvec: _F64, tvec: _F64, k: _F64, dist: _F64 | Non
     return float(math.sqrt(np.mean(np.sum((proj.reshape(-1, 2) - img) ** 2, axis=1))))
 
 
+#: Weight of a corner not seen where the print puts it (``Detection.corners_seen``: hidden,
+#: outside the frame, or measured off) against one vertex: its position is the print's, from the
+#: points, so it adds no evidence of its own — the pose comes from what was seen. (Weights 0, 1
+#: and 10 flagged 16, 17 and 14 of 479 small far poses ambiguous in benchmarks/pose_flips.py,
+#: seeds 1 and 2, none of them flipped unflagged: no measurable difference.)
+UNSEEN_CORNER_WEIGHT = 0.0
 #: Weight of each data-area corner against one triangle vertex in the final refinement. The
 #: corners come from four straight sides fitted over their whole length; the vertices from short
 #: sides meeting at acute tips, whose errors are larger and correlated (biased along the sliver).
@@ -240,9 +246,7 @@ def estimate_pose(
     weights = np.ones(len(obj))
     weights[:4] = corner_weight
     if detection.corners_seen is not None and len(obj) > 4:
-        # a corner not seen (hidden, outside the frame) is where the points put it: no evidence
-        # of its own beside them
-        weights[:4][~np.asarray(detection.corners_seen, dtype=bool)] = 0.0
+        weights[:4][~np.asarray(detection.corners_seen, dtype=bool)] = UNSEEN_CORNER_WEIGHT
     best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
     rv, tv = best[0], best[1]
     ambiguity = likelihood_ratio(obj, img, k, dist, weights, best, alt)
