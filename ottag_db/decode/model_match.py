@@ -130,7 +130,7 @@ def wants_model(
     -------
     bool
     """
-    if not params.model_match:
+    if not params.model_match or quad.inferred:  # (an outline no quad: a hidden border, not a grazing view)
         return False
     foreshortened = squeeze(quad) <= params.rectify_max_ratio
     if first.reason == "low_contrast":
