@@ -181,7 +181,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
         outlines.append((c, inverted, len(c), bool(hier[0][i][2] >= 0)))
-    if kind in ("adaptive", "otsu") and want_inverted:
+    if kind in ("adaptive", "otsu") and want_inverted and p.outline_by_lines:
         outlines.extend((c, True, len(c), False) for c in _holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
@@ -194,7 +194,8 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if approx is None and kind == "adaptive_thin" and not inverted:
             approx = _notched_outline(c)
         cut = approx is not None and _at_frame_edge(approx, mask.shape)  # a corner beyond it?
-        lines = (approx is None or cut) and kind in ("adaptive", "otsu") and perimeter >= 2 * min_len
+        lines = p.outline_by_lines and (approx is None or cut) and kind in ("adaptive", "otsu")
+        lines = lines and perimeter >= 2 * min_len
         # triangles first: only a dark region holding bright holes is a normal data area (an
         # inverted one, a hole itself, holds separate regions: its solidity decides below)
         opened = lines and not inverted and not holds_holes and want_inverted

@@ -122,10 +122,41 @@ def segment(gray: NDArray[np.uint8], quad: Quad, params: DetectorParams) -> Data
     level = 0.5 * (split.dark + split.bright)
     fg: NDArray[Any] = cv2.bitwise_and(cv2.threshold(roi, level, 255, cv2.THRESH_BINARY)[1], mask)
     fg, intrusions = _without_intrusions(fg, mask, side) if side >= INTRUSION_MIN_SIDE else (fg, 0)
+    fg, cut = _without_cut_components(fg, (x0, y0, x1, y1), (w, h))
+    intrusions += cut
     frac = cv2.countNonZero(fg) / max(cv2.countNonZero(mask), 1)
     if frac < 0.01 or frac > 0.75:
         return Rejection("no_triangles", f"bright fraction {frac:.2f}")
     return DataArea(roi, origin, ql, side, level, fg, intrusions)
+
+
+def _without_cut_components(
+    fg: NDArray[Any], box: tuple[int, int, int, int], frame: tuple[int, int]
+) -> tuple[NDArray[Any], int]:
+    """``fg`` (of the ROI ``box`` = x0, y0, x1, y1 of a ``frame`` = W, H) without the components
+    that reach the frame's edge, and how many there were: a triangle cut by the edge has a side
+    along it and a false vertex where the edge crosses it."""
+    x0, y0, x1, y1 = box
+    w, h = frame
+    if x0 > 0 and y0 > 0 and x1 < w and y1 < h:
+        return fg, 0  # the ROI does not reach the frame's edge
+    rim = np.zeros_like(fg)
+    if x0 == 0:
+        rim[:, 0] = 255
+    if y0 == 0:
+        rim[0, :] = 255
+    if x1 == w:
+        rim[:, -1] = 255
+    if y1 == h:
+        rim[-1, :] = 255
+    touching = cv2.bitwise_and(fg, rim)
+    if not cv2.countNonZero(touching):
+        return fg, 0
+    _, labels = cv2.connectedComponents(fg, connectivity=8)
+    cut = np.unique(labels[touching > 0])
+    cut = cut[cut > 0]
+    kept: NDArray[Any] = np.where(np.isin(labels, cut), 0, fg).astype(np.uint8)
+    return kept, len(cut)
 
 
 def _without_intrusions(fg: NDArray[Any], interior: NDArray[Any], side: float) -> tuple[NDArray[Any], int]:

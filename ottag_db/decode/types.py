@@ -322,6 +322,10 @@ class DetectorParams:
       many of 300 frames of one tag at 78–86° as no budget (292, none wrong), and bounds a
       frame to 8 readings (the last two passes run only on a frame that read nothing).
 
+    Hidden borders: ``outline_by_lines`` outlines a candidate whose outline is no quad, or whose
+    quad reaches the frame's edge, by the lines of its visible sides
+    (:mod:`~ottag_db.decode.candidates`); False reads only tags whose whole outline is seen.
+
     Raises :class:`~ottag_db.errors.UsageError` for invalid settings.
     """
 
@@ -367,6 +371,7 @@ class DetectorParams:
     model_misfit_lead: float = 0.08
     model_max_templates: int = 20_000
     model_max_reads: int = 2
+    outline_by_lines: bool = True
 
     def __post_init__(self) -> None:
         pols: Any = self.polarities
