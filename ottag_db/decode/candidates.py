@@ -181,7 +181,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
         outlines.append((c, inverted, len(c), bool(hier[0][i][2] >= 0)))
-    if kind in ("adaptive", "otsu") and want_inverted and p.outline_by_lines:
+    if kind == "adaptive" and want_inverted and p.outline_by_lines:  # (half resolution: cheap)
         outlines.extend((c, True, len(c), False) for c in _holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
@@ -360,7 +360,7 @@ def _holes_at_frame_edge(mask: NDArray[Any], min_len: float) -> list[NDArray[Any
     h, w = mask.shape[:2]
     out = []
     for c, (_, _, _, parent) in zip(contours, hier[0], strict=True):
-        if parent < 0 or len(c) < min_len:
+        if parent < 0 or not min_len <= len(c) <= w + h:  # (longer: the background along the edge)
             continue
         x, y = c[:, 0, 0], c[:, 0, 1]
         if x.min() <= 0 or y.min() <= 0 or x.max() >= w - 1 or y.max() >= h - 1:

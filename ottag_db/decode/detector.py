@@ -227,8 +227,11 @@ class Detector:
                 clock.lap("candidates")
                 if skip:
                     continue
-                result = read_quad(gray, quad, self._catalogue, None if again else FRAME_SEARCH, clock)
-                if isinstance(result, Rejection) and not again:
+                # an outline seen again, or inferred from the lines of a partly hidden border (whose
+                # reading must show the print anyway), is read once: no alternatives or retries
+                once = again or quad.inferred
+                result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
+                if isinstance(result, Rejection) and not once:
                     if result.reason in _RETRY_UPSAMPLED and result.decomposed:
                         result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                     if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
