@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from typing import Any, Literal
@@ -13,15 +12,14 @@ from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.image import frame_has_contrast
-from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
+from ottag_db.decode.outlines import at_frame_edge, data_area_inside, holes_at_frame_edge, lines_outline
+from ottag_db.decode.placement_check import UNIT_SQUARE
 from ottag_db.decode.quads import clockwise, same_quad, squeeze
 from ottag_db.decode.types import DetectorParams, Quad
 
 __all__ = [
     "JOINED_MAX_HOLES",
     "JOINED_QUIET_TOLERANCE",
-    "LINES_MIN_SOLIDITY",
-    "LINES_MIN_SUPPORT",
     "NOTCHED_MIN_FILL",
     "SMALL_QUAD_SIDE",
     "Binarization",
@@ -73,32 +71,6 @@ JOINED_MAX_HOLES = 256
 #: without the limit, reading them by model cost 2.4 ms per pattern frame
 #: (benchmarks/decode_clutter.py, model stage 0.7 → 3.1 ms); with it, nothing.
 NOTCHED_MIN_FILL = 0.6
-#: An outline that is no quad (a finger or bar across the border, a corner cut by the frame)
-#: is outlined by its four straightest runs (:func:`_lines_outline`) when they cover at least
-#: this fraction of the quad they make: the visible sides carry the outline, the occluder's
-#: edges and the frame's edge are shorter runs. On scikit-image's 20 photographs and textures
-#: (640×480) the two half-resolution passes' quads went from 119 to 163 at 0.7 and to 139 at
-#: 0.85, while occluded tags outlined fell from 17 of 30 to 15.
-LINES_MIN_SUPPORT = 0.85
-#: Polygon edges within this angle (degrees) and distance (px, or 1.5 % of the outline's
-#: length) of a line are runs of that line: the two visible parts of a side cut by a bar.
-_LINE_ANGLE_DEG = 4.0
-_LINE_DISTANCE = 0.015
-#: The longest runs among which the four sides are looked for, and the range of the quad's
-#: area over the outline's own (a spike adds little area, a notch or a cut corner takes little).
-_LINES_CONSIDERED = 7
-#: An outline is tried only when its region fills this much of its convex hull: a data area
-#: with a bar across a side fills 0.7–0.95 of its hull (the bar's long spike the least), the
-#: regions of foliage, gravel and text mostly much less.
-LINES_MIN_SOLIDITY = 0.6
-_LINES_AREA_RATIO = (0.8, 1.3)
-#: The same for an inverted tag's quiet zone opened into a C (``ring``): it fills 0.56 of its
-#: outline (0.45–0.75 under blur and an occluder), and 0.35–0.75 of its hull (a solid region
-#: is no ring).
-_RING_AREA_RATIO = (1 / 0.75, 1 / 0.45)
-_RING_SOLIDITY = (0.35, 0.75)
-#: A run of collinear outline edges: (support px, a point x, y, direction x, y, first edge).
-_Run = tuple[float, float, float, float, float, int]
 #: The printed quiet zone's outline in data-area units (corners in the unit square's order).
 _QUIET_OUTLINE = (UNIT_SQUARE - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
 
@@ -182,7 +154,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             continue
         outlines.append((c, inverted, len(c), bool(hier[0][i][2] >= 0)))
     if kind == "adaptive" and want_inverted and p.outline_by_lines:  # (half resolution: cheap)
-        outlines.extend((c, True, len(c), False) for c in _holes_at_frame_edge(mask, min_len))
+        outlines.extend((c, True, len(c), False) for c in holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
     joined_inverted = kind == "adaptive_thin"
@@ -193,7 +165,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         approx = _quad_outline(c, perimeter)
         if approx is None and kind == "adaptive_thin" and not inverted:
             approx = _notched_outline(c)
-        cut = approx is not None and _at_frame_edge(approx, mask.shape)  # a corner beyond it?
+        cut = approx is not None and at_frame_edge(approx, mask.shape)  # a corner beyond it?
         lines = p.outline_by_lines and (approx is None or cut) and kind in ("adaptive", "otsu")
         lines = lines and perimeter >= 2 * min_len
         # triangles first: only a dark region holding bright holes is a normal data area (an
@@ -201,10 +173,10 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         opened = lines and not inverted and not holds_holes and want_inverted
         lines = lines and (inverted or holds_holes)
         if lines:
-            approx = _lines_outline(c, perimeter, mask.shape)
+            approx = lines_outline(c, perimeter, mask.shape)
         elif opened:  # an inverted tag's quiet zone, opened: its data area inside
-            outer = _lines_outline(c, perimeter, mask.shape, ring=True)
-            approx = None if outer is None else _data_area_inside(outer)
+            outer = lines_outline(c, perimeter, mask.shape, ring=True)
+            approx = None if outer is None else data_area_inside(outer)
             inverted = lines = approx is not None
         if approx is None:
             continue
@@ -255,148 +227,6 @@ def _quad_outline(contour: NDArray[Any], perimeter: float) -> NDArray[Any] | Non
     if len(approx) != 4 or not cv2.isContourConvex(approx):
         return None
     return approx
-
-
-def _lines_outline(
-    contour: NDArray[Any], perimeter: float, shape: tuple[int, ...], ring: bool = False
-) -> NDArray[Any] | None:
-    """The quad of an outline's four straightest runs, or None.
-
-    A finger or bar across a data area's border adds a spike or a notch to its outline, a frame
-    edge cuts a corner off; the sides that remain visible still lie on four lines. The outline
-    is approximated by a polygon, its edges along the frame's edge are left out, and edges that
-    lie on one line (within ``_LINE_ANGLE_DEG`` and ``_LINE_DISTANCE``) are runs of one side.
-    The four lines with the longest runs, in their order around the outline, meet at the quad's
-    corners (which may lie outside the frame); the quad is kept when it is convex and its runs
-    cover at least :data:`LINES_MIN_SUPPORT` of its perimeter.
-
-    Parameters
-    ----------
-    contour : numpy.ndarray
-        ``(n, 1, 2)`` int32 contour.
-    perimeter : float
-        Its length, px.
-    shape : tuple of int
-        ``(H, W)`` of the image the contour was traced in.
-    ring : bool, optional
-        The region is an inverted tag's dark quiet zone opened by a finger or the frame's edge
-        (a ring cut into a C, the white data area no longer a hole of it): the quad is its outer
-        outline, which a ring fills to ``1 − 1 / (1 + 2 · QUIET_ZONE)²`` (0.56).
-
-    Returns
-    -------
-    numpy.ndarray or None
-        ``(4, 1, 2)`` float32 corners.
-    """
-    region = abs(float(cv2.contourArea(contour)))
-    (least_solid, most_solid), (least, most) = (
-        (_RING_SOLIDITY, _RING_AREA_RATIO) if ring else ((LINES_MIN_SOLIDITY, 1.0), _LINES_AREA_RATIO)
-    )
-    solidity = region / max(abs(float(cv2.contourArea(cv2.convexHull(contour)))), 1.0)
-    if not least_solid <= solidity <= most_solid:
-        return None  # ragged: texture, not a square with a spike, a notch or a cut corner
-    tol = max(1.5, _LINE_DISTANCE * perimeter)
-    poly: list[list[float]] = cv2.approxPolyDP(contour, tol, True).reshape(-1, 2).astype(float).tolist()
-    if len(poly) < 5 or len(poly) > 24:
-        return None
-    h, w = shape[:2]
-    # plain Python on a few dozen numbers (numpy's per-call cost would dominate)
-    edges: list[tuple[float, int, float, float, float, float]] = []  # (length, index, x, y, ux, uy)
-    for i, ((ax, ay), (bx, by)) in enumerate(zip(poly, poly[1:] + poly[:1], strict=True)):
-        along_frame = (ax <= 1 and bx <= 1) or (ay <= 1 and by <= 1) or (ax >= w - 2 and bx >= w - 2)
-        if along_frame or (ay >= h - 2 and by >= h - 2):
-            continue  # the frame's edge, not a side
-        length = math.hypot(bx - ax, by - ay)
-        if length >= 2 * tol:
-            edges.append((length, i, ax, ay, (bx - ax) / length, (by - ay) / length))
-    cos_tol = math.cos(math.radians(_LINE_ANGLE_DEG))
-    runs: list[_Run] = []
-    for length, i, ax, ay, ux, uy in sorted(edges, reverse=True):
-        bx, by = ax + length * ux, ay + length * uy
-        for j, (support, px, py, dx, dy, first) in enumerate(runs):
-            if (
-                abs(ux * dx + uy * dy) >= cos_tol
-                and max(abs((ax - px) * dy - (ay - py) * dx), abs((bx - px) * dy - (by - py) * dx)) <= tol
-            ):
-                runs[j] = (support + length, px, py, dx, dy, first)
-                break
-        else:
-            runs.append((length, ax, ay, ux, uy, i))
-    if len(runs) < 4:
-        return None
-    best_quad: NDArray[Any] | None = None
-    best_support = 0.0
-    # the four lines of the sides among the longest runs: the combination that covers the
-    # outline's area as a convex quad with the most support (a spike's edges can be longer)
-    for four in itertools.combinations(sorted(runs, reverse=True)[:_LINES_CONSIDERED], 4):
-        support = sum(r[0] for r in four)
-        if support <= best_support:
-            continue
-        quad = _lines_quad(sorted(four, key=lambda r: r[5]))  # in the outline's order
-        if quad is None:
-            continue
-        area = abs(float(cv2.contourArea(quad)))
-        if least * region <= area <= most * region:
-            best_quad, best_support = quad, support
-    if best_quad is None or best_support < LINES_MIN_SUPPORT * cv2.arcLength(best_quad, True):
-        return None
-    return best_quad
-
-
-def _holes_at_frame_edge(mask: NDArray[Any], min_len: float) -> list[NDArray[Any]]:
-    """Bright regions of the dark ``mask`` that reach the frame's edge, as outlines of at least
-    ``min_len`` points.
-
-    An inverted data area with a corner beyond the frame's edge is no hole of the dark mask: its
-    dark quiet zone no longer closes around it. Traced in the mask padded with a dark border, it
-    is one again (so is the background, which no quad outlines: its runs lie along the edge).
-    """
-    if not (mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any()):
-        return []  # nothing dark reaches the edge: every bright region there is background
-    padded = cv2.copyMakeBorder(mask, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=255)
-    contours, hier = cv2.findContours(padded, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE, offset=(-1, -1))
-    if hier is None:
-        return []
-    h, w = mask.shape[:2]
-    out = []
-    for c, (_, _, _, parent) in zip(contours, hier[0], strict=True):
-        if parent < 0 or not min_len <= len(c) <= w + h:  # (longer: the background along the edge)
-            continue
-        x, y = c[:, 0, 0], c[:, 0, 1]
-        if x.min() <= 0 or y.min() <= 0 or x.max() >= w - 1 or y.max() >= h - 1:
-            out.append(c)
-    return out
-
-
-def _data_area_inside(quiet: NDArray[Any]) -> NDArray[Any] | None:
-    """The data area inside a quiet zone's outer outline (``(4, 1, 2)``), as printed."""
-    to_frame = square_homography(clockwise(quiet.reshape(4, 2).astype(np.float64)))
-    if to_frame is None:
-        return None
-    q = QUIET_ZONE / (1 + 2 * QUIET_ZONE)
-    inner = apply_homography(to_frame, q + (1 - 2 * q) * UNIT_SQUARE)
-    return inner.astype(np.float32).reshape(4, 1, 2) if np.isfinite(inner).all() else None
-
-
-def _at_frame_edge(quad: NDArray[Any], shape: tuple[int, ...]) -> bool:
-    """Whether a corner of ``quad`` (``(4, 1, 2)``) lies on the frame's outermost pixels."""
-    q = quad.reshape(4, 2)
-    h, w = shape[:2]
-    return bool((q.min(axis=0) <= 1).any() or q[:, 0].max() >= w - 2 or q[:, 1].max() >= h - 2)
-
-
-def _lines_quad(lines: Sequence[_Run]) -> NDArray[Any] | None:
-    """The convex quad whose sides lie on four runs' lines, each meeting the next at a corner;
-    None when neighbours are nearly parallel or the quad is not convex."""
-    corners: list[tuple[float, float]] = []
-    for (_, px, py, dx, dy, _), (_, qx, qy, ex, ey, _) in zip(lines, [*lines[1:], lines[0]], strict=True):
-        det = dx * ey - dy * ex
-        if abs(det) < 0.2:  # nearly parallel neighbours: no corner between them
-            return None
-        t = ((qx - px) * ey - (qy - py) * ex) / det
-        corners.append((px + t * dx, py + t * dy))
-    quad = np.asarray(corners, dtype=np.float32).reshape(4, 1, 2)
-    return quad if cv2.isContourConvex(quad) else None
 
 
 def _notched_outline(contour: NDArray[Any]) -> NDArray[Any] | None:

@@ -134,7 +134,7 @@ def test_a_small_inverted_tag_seen_only_as_its_dark_quiet_zone_is_read_by_model(
         x, y = r.corners.T
         side = np.sqrt(abs(x @ np.roll(y, -1) - np.roll(x, -1) @ y) / 2)
         # the dark quiet zone's outline; the white data area, notched where the triangles join
-        # the quiet zone, only as the lines of its sides (candidates._lines_outline)
+        # the quiet zone, only as the lines of its sides (outlines.lines_outline)
         assert (r.polarity == "normal" and 34 < side < 38) or (r.polarity == "inverted" and side < 28)
     read = Detector(lookup).detect(image)
     assert [(d.lambda_text, d.polarity) for d in read] == [(tag.lambda_text, "inverted")]
