@@ -251,8 +251,12 @@ class Detector:
             # last, and only off the tags this pass decoded (pieces of a tag are not tags), within
             # the pass's budget: to the candidates most like a printed tag
             bank = self._bank
-            queue = [(q, r) for q, r in by_model if not within_detection(q, detections)]
-            rejected.extend(r.at(q) for q, r in by_model if within_detection(q, detections))
+            queue: list[tuple[Quad, Rejection]] = []
+            for quad, first in by_model:
+                if within_detection(quad, detections):
+                    rejected.append(first.at(quad))
+                else:
+                    queue.append((quad, first))
             scores = [ranking_score(gray, q, bank, p) for q, _ in queue] if bank is not None else []
             chosen, passed_over = rank_for_model(scores, p.model_max_reads)
             clock.lap("model")

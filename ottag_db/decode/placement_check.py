@@ -217,17 +217,13 @@ def printed_corners(
     printed = apply_homography(unit_to_image, UNIT_SQUARE)
     if not np.isfinite(printed).all():
         return corners, np.ones(4, dtype=bool)
-    # each measured corner against the nearest printed one (the quad's corner order is its own)
-    dist = np.linalg.norm(corners[:, None, :] - printed[None, :, :], axis=2)
-    nearest = printed[dist.argmin(axis=1)]
-    seen = dist.min(axis=1) <= tolerance_px
-    if print_shown:  # every corner against the printed one of the same turn, however far
-        matched = printed[_match_corners(corners, printed)]
-        seen = np.linalg.norm(corners - matched, axis=1) <= tolerance_px
-        return np.where(seen[:, None], corners, matched), seen
-    if int(seen.sum()) < CORNERS_TO_TRUST_PRINT or len(set(dist.argmin(axis=1).tolist())) < 4:
+    # each measured corner against the printed one of the same turn (the quad's corner order is
+    # its own, and a hidden corner may be far off)
+    matched = printed[_match_corners(corners, printed)]
+    seen = np.linalg.norm(corners - matched, axis=1) <= tolerance_px
+    if not print_shown and int(seen.sum()) < CORNERS_TO_TRUST_PRINT:
         return corners, np.ones(4, dtype=bool)
-    return np.where(seen[:, None], corners, nearest), seen
+    return np.where(seen[:, None], corners, matched), seen
 
 
 def _match_corners(corners: _F64, printed: _F64) -> NDArray[np.intp]:

@@ -149,14 +149,7 @@ def _without_cut_components(
         rim[:, -1] = 255
     if y1 == h:
         rim[-1, :] = 255
-    touching = cv2.bitwise_and(fg, rim)
-    if not cv2.countNonZero(touching):
-        return fg, 0
-    _, labels = cv2.connectedComponents(fg, connectivity=8)
-    cut = np.unique(labels[touching > 0])
-    cut = cut[cut > 0]
-    kept: NDArray[Any] = np.where(np.isin(labels, cut), 0, fg).astype(np.uint8)
-    return kept, len(cut)
+    return _without_touching(fg, rim, 1.0)
 
 
 def _without_intrusions(fg: NDArray[Any], interior: NDArray[Any], side: float) -> tuple[NDArray[Any], int]:
@@ -166,24 +159,28 @@ def _without_intrusions(fg: NDArray[Any], interior: NDArray[Any], side: float) -
     :data:`~ottag_db.core.placement.DEFAULT_INNER_MARGIN` (a tenth of the side) inside its data
     area, while the band left out of the interior is 2 % of the side: a component that runs
     along the interior's outermost pixels for :data:`INTRUSION_MIN_WIDTH` of the side (3 px at
-    least) comes
-    from outside — a finger, a bar, a pen across the tag (a triangle's tip that a rough quad
-    brings near the edge touches it at a pixel or two). It is no triangle; the reading without
-    it must show the tag as printed (see :attr:`~ottag_db.decode.types.DataArea.intrusions`).
+    least) comes from outside — a finger, a bar, a pen across the tag (a triangle's tip that a
+    rough quad brings near the edge touches it at a pixel or two). It is no triangle; the reading
+    without it must show the tag as printed (see :attr:`~ottag_db.decode.types.DataArea.intrusions`).
     """
     edge = cv2.bitwise_and(interior, cv2.bitwise_not(cv2.erode(interior, _CROSS)))
-    touching = cv2.bitwise_and(fg, edge)
-    width = max(3.0, INTRUSION_MIN_WIDTH * side)
-    if cv2.countNonZero(touching) < width:
+    return _without_touching(fg, edge, max(3.0, INTRUSION_MIN_WIDTH * side))
+
+
+def _without_touching(fg: NDArray[Any], where: NDArray[Any], least: float) -> tuple[NDArray[Any], int]:
+    """``fg`` without its components that have at least ``least`` pixels in the mask ``where``,
+    and how many there were."""
+    touching = cv2.bitwise_and(fg, where)
+    if cv2.countNonZero(touching) < least:
         return fg, 0
     count, labels = cv2.connectedComponents(fg, connectivity=8)
     along = np.bincount(labels[touching > 0], minlength=count)
-    crossing = np.flatnonzero(along >= width)
-    crossing = crossing[crossing > 0]
-    if not len(crossing):
+    dropped = np.flatnonzero(along >= least)
+    dropped = dropped[dropped > 0]
+    if not len(dropped):
         return fg, 0
-    kept: NDArray[Any] = np.where(np.isin(labels, crossing), 0, fg).astype(np.uint8)
-    return kept, len(crossing)
+    kept: NDArray[Any] = np.where(np.isin(labels, dropped), 0, fg).astype(np.uint8)
+    return kept, len(dropped)
 
 
 def decompose(
