@@ -1,6 +1,6 @@
 """Pose flips on small, far, nearly fronto-parallel tags: ours vs ArUco 6×6 vs AprilTag 36h11.
 
-Usage: python benchmarks/pose_flips.py [--poses N] [--seed S] [--frames F] [--tags T] [--quiet]
+Usage: python benchmarks/pose_flips.py [--poses N] [--seed S] [--frames F] [--tags T] [--diagnose] [--quiet]
 
 Still poses: a 10 cm black square (the data area, the ArUco and the AprilTag black square) at
 1.0–2.5 m (about 28–70 px wide), tilted 0–30° from the optical axis about a random in-plane axis,
@@ -20,6 +20,11 @@ black square. Each pose is rendered once per marker, with the same noise seed.
 
 A flip is a tag-plane normal error over 10°. Printed per method: poses read, flips, mean and
 median normal error (all poses read, and the poses all three read).
+
+``--diagnose`` adds a row per still pose flagged or flipped: its size, the detection's
+``corners_seen``, each corner's and the largest vertex's distance from its true image position
+(px), the ambiguity and the errors of the pose and of its alternative — where the evidence is
+lost (a corner measured off, a vertex at a sharp tip) rather than only how often.
 
 Video: a camera moving past the tag (``--frames`` frames at 1.4–2.2 m, the tag 2–12° from
 fronto-parallel, turning and rolling slowly); our per-frame poses go through
@@ -48,7 +53,7 @@ from peers import PEERS, PeerReader
 from pose_accuracy import SIZE, Texture, errors, marker_texture, peer_pose, render, tag_texture
 
 from ottag_db.core.placement import tag_placement
-from ottag_db.decode import Detection, Detector, Pose, estimate_pose
+from ottag_db.decode import Detection, Detector, Pose, estimate_pose, tag_object_points
 
 K_PARAMS = (700.0, 700.0, 319.5, 239.5)
 K = np.array([[700.0, 0, 319.5], [0, 700.0, 239.5], [0, 0, 1.0]])
@@ -226,6 +231,30 @@ def report_still(rows: list[StillRow]) -> None:
     )
 
 
+def report_diagnosis(rows: list[StillRow]) -> None:
+    """One row per still pose flagged ambiguous or flipped: what the detection measured wrong."""
+    print("flagged or flipped (px: distance of each corner / the worst vertex from its true image position):")
+    for i, r in enumerate(rows):
+        if r.ours is None:
+            continue
+        p = our_pose(r.ours)
+        err = errors(p.R, p.tvec, r.case.r_mat, r.case.t)[0]
+        if not (p.ambiguous or err > FLIP_DEG):
+            continue
+        placement = None if r.ours.model_points is None else tag_placement(r.ours.model_points)
+        obj, img = tag_object_points(r.ours, SIZE, placement)
+        true_img, _ = cv2.projectPoints(obj, cv2.Rodrigues(r.case.r_mat)[0], r.case.t, K, None)
+        off = np.linalg.norm(img - true_img.reshape(-1, 2), axis=1)
+        side = float(np.mean(np.linalg.norm(np.roll(r.ours.corners, -1, axis=0) - r.ours.corners, axis=1)))
+        seen = "".join("s" if s else "-" for s in (r.ours.corners_seen or (True,) * 4))
+        alt = errors(np.asarray(cv2.Rodrigues(p.alternative.rvec)[0]), p.alternative.tvec, r.case.r_mat, r.case.t)[0]
+        print(
+            f"  #{i:<3d} {r.case.dist:.2f} m tilt {r.case.tilt:4.1f}° side {side:4.1f} px seen {seen} "
+            f"corners {' '.join(f'{v:.2f}' for v in off[:4])} vertex max {off[4:].max(initial=0.0):.2f} | "
+            f"ambiguity {p.ambiguity:.3f}{' flagged' if p.ambiguous else ''}, error {err:.1f}° (alternative {alt:.1f}°)"
+        )
+
+
 def report_video(setup: Setup, frames: int, seed: int) -> None:
     """Our poses on the moving-camera sequence, frame alone and through the tracker."""
     from ottag_db.app.pose_tracking import PoseTracker
@@ -258,6 +287,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=150, help="video frames [150]")
     parser.add_argument("--tags", type=int, default=3, help="k = 8 tags cycled over the poses [3]")
     parser.add_argument("--seed", type=int, default=3, help="poses and noise seed (tuned on 1 and 2) [3]")
+    parser.add_argument("--diagnose", action="store_true", help="a row per still pose flagged or flipped")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     args = parser.parse_args()
     setup = make_setup(args.tags)
@@ -267,6 +297,8 @@ def main() -> None:
         f"tilt 0–30°, random roll; blur σ 0.6 px, noise σ 2; flip = normal error > {FLIP_DEG:.0f}°"
     )
     report_still(rows)
+    if args.diagnose:
+        report_diagnosis(rows)
     report_video(setup, args.frames, args.seed)
     # pupil_apriltags' detector, after estimate_tag_pose, now and then aborts when it is freed
     # ("corrupted size vs. prev_size", pupil-labs/apriltags issue 39): leave without freeing it
