@@ -57,7 +57,7 @@ from ottag_db.decode import Detector
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decode_speed import bundled_tags  # the benchmarks next door
 from peers import MARKER_ID, PEERS, PeerReader, marker_patch, plot_lines
-from povray import Frame, Renderer, Scene, measure_corners, pose
+from povray import FOCAL, Frame, Renderer, Scene, measure_corners, pose
 
 _U8 = NDArray[np.uint8]
 #: The black square (our data area) in metres; the textures are 1.5 sides wide (white border).
@@ -244,7 +244,8 @@ def main(args: argparse.Namespace, rows: Sequence[Degradation]) -> None:
         peers = PeerReader()
         print(
             f"{args.poses} poses (seed {args.seed}): {SQUARE_M * 100:.0f} cm black square at {DISTANCE_M} m "
-            f"(98 px frontal), tilt −{TILT:g}…+{TILT:g}°, roll {ROLL:g}°; POV-Ray 640×480, f = 700 px; "
+            f"({SQUARE_M * FOCAL / DISTANCE_M:.0f} px frontal), tilt −{TILT:g}…+{TILT:g}°, roll {ROLL:g}°; "
+            f"POV-Ray 640×480, f = {FOCAL:g} px; "
             f"our tag {tag_id}"
         )
         print(

@@ -7,10 +7,11 @@ front of a pinhole camera of 640×480 pixels with f = 700 px and the principal p
 image centre (319.5, 239.5), pixel centres at integer coordinates as in OpenCV. POV-Ray's
 perspective camera is given ``direction`` = f, ``right`` = width and ``up`` = height in pixel
 units, so its focal length is f pixels exactly; POV-Ray's left-handed frame (y up) is OpenCV's
-(y down) with y negated. A large grey wall 3 m behind the camera's focus plane fills the
+(y down) with y negated. A large grey wall 3 m behind the patch's centre fills the
 surroundings; one point light up and to the left of the camera and an ambient term light the
-scene (shadows on); adaptive antialiasing (``+A0.05 +AM2 +R3``, no jitter). The texture is mapped
-to reflectances from ink (0.05) to paper (0.9); the pipeline is linear (gamma 1 in and out).
+scene (the patch casts no shadow on the wall); adaptive antialiasing (``+A0.05 +AM2 +R3``, no
+jitter). The texture is mapped to reflectances from ink (0.05) to paper (0.9); the pipeline is
+linear (gamma 1 in and out).
 
 :class:`Renderer` renders a batch of scenes with at most two POV-Ray processes at once (one
 thread each), each in its own temporary folder, and keeps each frame as a PNG in a cache folder
@@ -139,16 +140,15 @@ class Renderer:
         self.cache = cache
         self.processes = max(1, min(2, processes))
         self.cache.mkdir(parents=True, exist_ok=True)
-        self._pngs: dict[int, tuple[bytes, str]] = {}
+        self._pngs: dict[int, tuple[_U8, bytes, str]] = {}  # id -> (the texture, kept alive; PNG; hash)
         self.rendered = 0  # frames rendered (not read from the cache) by this renderer
         self.seconds = 0.0  # wall time of the batches that rendered
 
     def _png(self, texture: _U8) -> tuple[bytes, str]:
-        key = id(texture)
-        if key not in self._pngs:
+        if id(texture) not in self._pngs:
             png = _texture_png(texture)
-            self._pngs[key] = (png, hashlib.sha256(png).hexdigest())
-        return self._pngs[key]
+            self._pngs[id(texture)] = (texture, png, hashlib.sha256(png).hexdigest())
+        return self._pngs[id(texture)][1:]
 
     def _one(self, scene: Scene) -> _U8:
         png, digest = self._png(scene.texture)
