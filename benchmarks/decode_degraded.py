@@ -313,7 +313,7 @@ if __name__ == "__main__":
     parser.add_argument("--plot", type=Path, help="write reads against defocus and motion blur as a PNG")
     rows_help = 'only the rows whose name starts with a NAME (none defocus "JPEG 20" …)'
     parser.add_argument("--levels", nargs="+", metavar="NAME", help=rows_help)
-    parser.add_argument("--tag", metavar="K:DIGITS", help="our tag (default: the k = 8 tag of largest printed MP)")
+    parser.add_argument("--tag", metavar="K:DIGITS", help="our tag [the matchable k = 8 tag of largest printed MP]")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
     args = parser.parse_args()
     if args.poses < 1:
