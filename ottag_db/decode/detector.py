@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
+from ottag_db.decode.blur import BLURRED_MIN_RANKING, edge_blur
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
@@ -231,7 +232,9 @@ class Detector:
                 # reading must show the print anyway), is read once: no alternatives or retries
                 once = again or quad.inferred
                 result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
-                if isinstance(result, Rejection) and not once:
+                # blurred sides: the points' tips and gaps are gone at every scale (reading by model)
+                blurred = isinstance(result, Rejection) and not once and self._blurred_tag(gray, quad)
+                if isinstance(result, Rejection) and not once and not blurred:
                     if result.reason in _RETRY_UPSAMPLED and result.decomposed:
                         result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                     if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
@@ -241,7 +244,9 @@ class Detector:
                     if isinstance(result, Rejection):
                         rejected.append(result.at(quad))  # two readings disagree: not read by model again
                         continue
-                wanted = isinstance(result, Rejection) and wants_model(quad, result, _RETRY_UPSAMPLED, p, edge_on)
+                wanted = isinstance(result, Rejection) and wants_model(
+                    quad, result, _RETRY_UPSAMPLED, p, edge_on, blurred
+                )
                 if isinstance(result, Rejection) and self._bank and wanted:
                     by_model.append((quad, result))
                 elif isinstance(result, Rejection):
@@ -257,7 +262,9 @@ class Detector:
                     rejected.append(first.at(quad))
                 else:
                     queue.append((quad, first))
-            scores = [ranking_score(gray, q, bank, p) for q, _ in queue] if bank is not None else []
+            # ranked only when the pass's candidates outnumber its readings (a coarse match each)
+            ranked = bank is not None and len(queue) > p.model_max_reads
+            scores = [ranking_score(gray, q, bank, p) if bank is not None and ranked else 0.0 for q, _ in queue]
             chosen, passed_over = rank_for_model(scores, p.model_max_reads)
             clock.lap("model")
             for i in passed_over:
@@ -278,6 +285,14 @@ class Detector:
                 elif not any(same_tag(result, d) for d in detections):
                     detections.append(result)
         return [in_frame_corners(d, gray.shape) for d in detections], rejected
+
+    def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> bool:
+        """Whether a candidate the points did not read looks like a blurred tag: its sides are
+        blurred alike (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`) and its coarse match
+        looks like a printed tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`)."""
+        if self._bank is None or not edge_blur(gray, quad).blurred:
+            return False
+        return ranking_score(gray, quad, self._bank, self._params) >= BLURRED_MIN_RANKING
 
 
 def read_quad(

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
+from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur, camera_blurs
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_area_depths, square_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
 
@@ -86,12 +87,13 @@ _FINE_OUTLINE.flags.writeable = False
 #: Side of the window (refinement-template cells, 1/10 of the data area) over which the
 #: aligned tag's local misfit is averaged (see :class:`Aligned`).
 _MISFIT_WINDOW = 4
-#: Gaussian σ (frame pixels) of the camera blurs the tag is drawn with when it is judged (see
-#: :class:`Aligned`): the first for the correlation, the one that fits the outline best for the
-#: misfits; and the quiet zone drawn around the tag (data-area units, :data:`INVERTED_QUIET`).
-_CAMERA_BLURS_PX = (0.45, 0.7, 1.0)
+#: The quiet zone drawn around the tag when it is judged (data-area units, :data:`INVERTED_QUIET`).
 _DRAWN_QUIET = INVERTED_QUIET
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
+#: The factor by which an ECC alignment may change the data area's area from its starting
+#: view's: the starting corners (a contour's, or an outline's fit) are within a few pixels of
+#: the tag's, which changes the area by well under 2× even at grazing views.
+_ECC_MAX_AREA_CHANGE = 3.0
 _ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
 
 
@@ -109,7 +111,7 @@ class Aligned:
     correlation of the aligned tag with the frame inside the data area, and its largest local
     misfit there. Both compare the frame with the tag as the camera would see it: drawn into
     the frame through the aligned homography, blurred and sampled back like the frame. The
-    correlation takes the first blur of ``_CAMERA_BLURS_PX``. The misfit is the mean absolute
+    correlation takes the first of :data:`~ottag_db.decode.blur.NOMINAL_BLURS_PX`. The misfit is the mean absolute
     residual of the frame against the view with the blur that fits the outline best (the quiet
     band and the data area's rim, :data:`_FINE_OUTLINE`: the frame's own blur, measured where
     every tag looks the same, so that it cannot favour one tag), scaled to the frame's contrast
@@ -117,7 +119,10 @@ class Aligned:
     tag that resembles the one seen fits well overall but leaves a patch where a triangle
     differs. The quiet misfit is the mean absolute residual over the quiet band around the
     data area, with the scale and offset fitted inside it: the band must be as bright or dark
-    as the reading's polarity prints it."""
+    as the reading's polarity prints it. ``blurred_correlation``: the correlation with the blur
+    that fits the outline when the candidate's sides measure a blur beyond the nominal ones
+    (:func:`~ottag_db.decode.blur.camera_blurs`), else ``correlation``; it must reach the minimum correlation, while
+    the gap to the other tags is judged on ``correlation``."""
 
     row: int
     view: View
@@ -125,6 +130,7 @@ class Aligned:
     correlation: float
     misfit: float
     quiet_misfit: float
+    blurred_correlation: float
 
 
 def _quiet_ring(b: float) -> _F32:
@@ -229,6 +235,13 @@ def ecc(
     # tag (a rival with ρ 0.94 that way was once drawn from garbage polygons)
     if not (data_area_depths(to_frame) > 0).all():
         return None
+    # ... and keep about the size it started from: ECC refines a view, and one that shrinks
+    # the data area to a few pixels (a 31 px candidate's to 8 px, on a blurred frame) or
+    # swells it has collapsed onto a detail or wandered off, whatever it correlates
+    aligned_area = abs(float(cv2.contourArea(apply_homography(to_frame, UNIT_SQUARE).astype(np.float32))))
+    start_area = abs(float(cv2.contourArea(corners.astype(np.float32))))
+    if not start_area / _ECC_MAX_AREA_CHANGE <= aligned_area <= start_area * _ECC_MAX_AREA_CHANGE:
+        return None
     return to_frame, warp64
 
 
@@ -316,19 +329,25 @@ def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_
     return out
 
 
-def align(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View) -> Aligned | None:
+def align(
+    roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, blur: EdgeBlur | None = None
+) -> Aligned | None:
     """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`ecc`),
     judged against the tag as the camera would see it there; None when ECC fails."""
     template = fine_template(bank.triangles[row], view.polarity)
     found = ecc(roi, origin, template, view.corners)
     if found is None:
         return None
-    return judge(roi, origin, bank, row, view, found[0])
+    return judge(roi, origin, bank, row, view, found[0], blur)
 
 
-def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64) -> Aligned:
+def judge(
+    roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64, blur: EdgeBlur | None = None
+) -> Aligned:
     """Template ``row`` judged against the frame under the homography ``to_frame`` (data-area
-    units → frame), as the camera would see it there (see :class:`Aligned`)."""
+    units → frame), as the camera would see it there (see :class:`Aligned`); ``blur``: the
+    candidate's measured edge blur (:func:`~ottag_db.decode.blur.edge_blur`), whose blurs the
+    misfits may take too (:func:`~ottag_db.decode.blur.camera_blurs`)."""
     warp = to_roi(origin) @ to_frame @ _FINE_PX_TO_UNIT
     size = (_FINE_GRID, _FINE_GRID)
     flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
@@ -342,23 +361,28 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
         drawn = np.float32(1.0) - drawn
     blurred = [
         np.asarray(
-            cv2.warpPerspective(
-                cv2.GaussianBlur(drawn, (0, 0), sigma), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE
-            ),
+            cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE),
             dtype=np.float32,
         )
-        for sigma in _CAMERA_BLURS_PX
+        for kind in camera_blurs(blur)
     ]
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
     inside = _FINE_INSIDE
     s_in = seen[inside, inside]
-    pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
     # The misfits with the frame's own blur: against the nominal blur the correct tag's sliver
     # edges in a blurrier frame misfit like a look-alike's triangle (at 84°, 0.29-0.31 over the
     # limit of 0.28: normal tags 3 points behind inverted ones, benchmarks/decode_sweeps.py)
     s_outline = seen[_FINE_OUTLINE]
     expected = min(blurred, key=lambda e: _contrast_residual(e[_FINE_OUTLINE], s_outline))
+    pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
+    # on a blurred candidate also with the blur that fits its outline: a tag blurred by 3.5 px
+    # correlates 0.89 with its nominal drawing (its look-alikes 0.4-0.8), 1.00 with its blurred
+    # one (and the look-alikes 0.97-0.98: blur compresses the gaps, which the nominal one keeps)
+    fitted = pair[0] @ pair[1]
+    if len(blurred) > len(NOMINAL_BLURS_PX):
+        both = normalized_rows(np.stack([expected[inside, inside].ravel(), s_in.ravel()]))
+        fitted = both[0] @ both[1]
     e_in = expected[inside, inside]
     coef = _contrast_fit(e_in.ravel(), s_in.ravel())
     resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
@@ -369,7 +393,7 @@ def judge(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_
     band = _FINE_BAND_CELLS
     quiet = np.abs(seen[band] - (coef[0] * expected[band] + coef[1]))
     quiet_misfit = float(quiet.mean() / max(abs(float(coef[0])), 1e-6))
-    return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit)
+    return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit, float(fitted))
 
 
 def _contrast_fit(expected: _F32, seen: _F32) -> _F32:

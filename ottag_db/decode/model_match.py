@@ -61,23 +61,21 @@ from numpy.typing import NDArray
 
 from ottag_db.core.canonical import lambda_text
 from ottag_db.core.single_set import read_set
-from ottag_db.decode.identify import for_polarity
-from ottag_db.decode.model_align import (
-    Aligned,
-    View,
-    align,
-    neighbourhood,
-    outline_views,
+from ottag_db.decode.blur import (
+    BLURRED_MAX_MISFIT,
+    BLURRED_MIN_NOMINAL_CORRELATION,
+    BLURRED_MIN_SIDE,
+    EdgeBlur,
+    edge_blur,
 )
+from ottag_db.decode.identify import for_polarity
+from ottag_db.decode.model_align import Aligned, View, align, judge, neighbourhood, outline_views
 from ottag_db.decode.model_budget import coarse_samples, contour_views
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import squeeze
 from ottag_db.decode.reading import points_fit
-from ottag_db.decode.templates import (
-    TemplateBank,
-    placement,
-)
+from ottag_db.decode.templates import TemplateBank, placement
 from ottag_db.decode.types import Detection, DetectorParams, ModelGuess, Quad, Rejection
 
 __all__ = ["MODEL_CANDIDATES", "MODEL_CHALLENGERS", "confirm_by_model", "read_model", "wants_model"]
@@ -100,7 +98,12 @@ _MIN_COARSE = 0.35
 
 
 def wants_model(
-    quad: Quad, first: Rejection, retry_reasons: frozenset[str], params: DetectorParams, edge_on_pass: bool = False
+    quad: Quad,
+    first: Rejection,
+    retry_reasons: frozenset[str],
+    params: DetectorParams,
+    edge_on_pass: bool = False,
+    blurred: bool = False,
 ) -> bool:
     """Whether a candidate no reading decoded is read by model (see the module docstring).
 
@@ -125,6 +128,11 @@ def wants_model(
         quiet zone: inside the band that segmentation leaves out, nothing but dark shows. In
         the other passes such quads are mostly thin dark strips of clutter (one frame in four
         of benchmarks/decode_speed.py, 10–90 ms each by model).
+    blurred : bool, optional
+        The candidate's sides are blurred (:func:`~ottag_db.decode.blur.edge_blur` at least
+        :data:`~ottag_db.decode.blur.BLURRED_MIN_SIGMA`): any view of any size is read by
+        model when its points did not read, ``"low_contrast"`` included (blur lowers the
+        contrast of small triangles and merges the others).
 
     Returns
     -------
@@ -132,6 +140,8 @@ def wants_model(
     """
     if not params.model_match or quad.inferred:  # (an outline no quad: a hidden border, not a grazing view)
         return False
+    if blurred:
+        return first.reason in retry_reasons or first.reason in ("no_triangles", "low_contrast")
     foreshortened = squeeze(quad) <= params.rectify_max_ratio
     if first.reason == "low_contrast":
         return edge_on_pass and foreshortened
@@ -290,30 +300,59 @@ def read_model(
     clock.lap("model")
     if not aligned:
         return first
-    top, runner_up = _decide(aligned, unaligned, bank, params, rivals)
-    if _accepted(top, runner_up, params):
-        # Small, steep data areas rank the tag seen as low as 11th–58th by the coarse score
-        # from the contour's corners (benchmarks/soft_decoding.py scenes, 50–110 px at
-        # 70–80°), and a look-alike among the few refined then wins unrivalled: the winner must
-        # also beat the best tags of the coarse match from its own, refined alignment.
-        challengers = _challengers(gray, roi, origin, bank, aligned, top)
-        if challengers:
-            aligned += challengers
-            top, runner_up = _decide(aligned, unaligned, bank, params, rivals)
-        clock.lap("model")
+    top, runner_up = _decide_with_challengers(gray, roi, origin, bank, aligned, unaligned, params, rivals, None)
+    blur = edge_blur(gray, quad)
+    blurred = False
+    judged_blurred = (
+        blur.blurred
+        and blur.largest <= math.sqrt(quad.area) / BLURRED_MIN_SIDE
+        and top.correlation >= BLURRED_MIN_NOMINAL_CORRELATION
+    )
+    if not _accepted(top, runner_up, params) and judged_blurred:
+        # judged again as a camera with the blur its sides measure would see each tag (the
+        # same alignments): the nominal blur misfits a defocused tag's triangles everywhere
+        rejudged = [judge(roi, origin, bank, a.row, a.view, a.to_frame, blur) for a in aligned]
+        top, runner_up = _decide_with_challengers(gray, roi, origin, bank, rejudged, unaligned, params, rivals, blur)
+        blurred = True
+    clock.lap("model")
     note = (
         f"{first.detail}; by model: ρ {top.correlation:.2f}, next {runner_up:.2f}, misfit {top.misfit:.2f},"
         f" quiet zone {top.quiet_misfit:.2f}"
     )
     note = note.lstrip("; ")
     best = ModelGuess(bank.entries[top.row].lambda_text, top.view.polarity, top.correlation)
-    if not _accepted(top, runner_up, params):
+    if not _accepted(top, runner_up, params, blurred):
         return Rejection(first.reason, note, first.lambda_text, first.decomposed, model_best=best)
     result = _detection(bank, top, quad)
     clock.lap("model")
     if isinstance(result, Detection):
         return result
     return Rejection(first.reason, note, first.lambda_text, model_best=best)
+
+
+def _decide_with_challengers(
+    gray: NDArray[np.uint8],
+    roi: _F32,
+    origin: _F64,
+    bank: TemplateBank,
+    aligned: list[Aligned],
+    unaligned: list[float],
+    params: DetectorParams,
+    rivals: tuple[ModelGuess, ...],
+    blur: EdgeBlur | None,
+) -> tuple[Aligned, float]:
+    """:func:`_decide`, and when the winner is accepted, again with its challengers (judged
+    with the candidate's measured ``blur`` too, see :func:`~ottag_db.decode.model_align.judge`)."""
+    top, runner_up = _decide(aligned, unaligned, bank, params, rivals)
+    if _accepted(top, runner_up, params, blur is not None):
+        # Small, steep data areas rank the tag seen as low as 11th–58th by the coarse score
+        # from the contour's corners (benchmarks/soft_decoding.py scenes, 50–110 px at
+        # 70–80°), and a look-alike among the few refined then wins unrivalled: the winner must
+        # also beat the best tags of the coarse match from its own, refined alignment.
+        challengers = _challengers(gray, roi, origin, bank, aligned, top, blur)
+        if challengers:
+            top, runner_up = _decide(aligned + challengers, unaligned, bank, params, rivals)
+    return top, runner_up
 
 
 def _decide(
@@ -343,18 +382,26 @@ def _decide(
     return top, max(others + unaligned + earlier, default=-1.0)
 
 
-def _accepted(top: Aligned, runner_up: float, params: DetectorParams) -> bool:
-    """Whether the best aligned tag is read (the ``model_*`` limits of :class:`DetectorParams`)."""
+def _accepted(top: Aligned, runner_up: float, params: DetectorParams, blurred: bool = False) -> bool:
+    """Whether the best aligned tag is read (the ``model_*`` limits of :class:`DetectorParams`;
+    judged with the candidate's measured blur, ``blurred``, the misfit within
+    :data:`~ottag_db.decode.blur.BLURRED_MAX_MISFIT`)."""
     return (
-        top.correlation >= params.model_min_correlation
+        top.blurred_correlation >= params.model_min_correlation
         and top.correlation - runner_up >= params.model_min_gap
-        and top.misfit <= params.model_max_misfit
+        and top.misfit <= (min(BLURRED_MAX_MISFIT, params.model_max_misfit) if blurred else params.model_max_misfit)
         and top.quiet_misfit <= params.model_max_quiet_misfit
     )
 
 
 def _challengers(
-    gray: NDArray[np.uint8], roi: _F32, origin: _F64, bank: TemplateBank, aligned: list[Aligned], top: Aligned
+    gray: NDArray[np.uint8],
+    roi: _F32,
+    origin: _F64,
+    bank: TemplateBank,
+    aligned: list[Aligned],
+    top: Aligned,
+    blur: EdgeBlur | None,
 ) -> list[Aligned]:
     """The coarse match again, with the data area where the winner's alignment puts it (in its
     four turns: the winner's corner order need not be another tag's): the best
@@ -379,7 +426,7 @@ def _challengers(
         chosen += _best_tags(bank, scores[:, own], [views[own[0]]], MODEL_CHALLENGERS, taken)
     out: list[Aligned] = []
     for row, view, _ in chosen:
-        a = align(roi, origin, bank, row, view)
+        a = align(roi, origin, bank, row, view, blur)
         if a is not None:
             out.append(a)
     return out

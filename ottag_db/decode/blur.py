@@ -1,0 +1,296 @@
+"""A candidate's blur, measured on its data area's sides.
+
+Defocus and motion blur wash out what the reading at the frame's scale needs most: the sharp
+tips of the triangles and the thin gaps between triangles that meet or lie close. Both are a
+few pixels wide, so a blur of 2 px or more merges or erases them while the data area's sides,
+long straight steps from the quiet zone's tone to the data area's, stay straight and centred.
+Those sides measure the blur: across a step blurred by a Gaussian of σ px the grey level
+rises with a slope of at most ``height / (σ √(2π))``. A candidate whose sides are blurred and
+whose points did not read is read by model (:mod:`.model_match`), which compares the whole
+printed tag with the frame and does not need the tips and gaps; reading it at a coarser scale
+does not help, as the gaps shrink with the blur.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from ottag_db.decode.types import Quad
+
+__all__ = [
+    "BLURRED_MAX_MISFIT",
+    "BLURRED_MIN_SIGMA",
+    "NOMINAL_BLURS_PX",
+    "Blur",
+    "EdgeBlur",
+    "camera_blurs",
+    "edge_blur",
+]
+
+_F64 = NDArray[np.float64]
+_F32 = NDArray[np.float32]
+
+#: Edge blur (σ of a Gaussian, frame px) from which a candidate the points did not read is
+#: read by model. A sharp frame's sides measure 0.5–0.9 px (the lens's and the sensor's own
+#: blur and antialiasing); from about 1.5 px the reading of the points loses triangles' tips
+#: and gaps (a third of 8-point tags 98 px wide are lost at 1.5 px, nearly all at 2.5 px).
+BLURRED_MIN_SIGMA = 1.2
+#: The largest ratio of the blurs of a blurred tag's opposite sides. A defocus or a motion
+#: blurs a small tag's opposite, nearly parallel sides alike (defocused tags measure within
+#: 20 %, moving ones within 50 %: the motion crosses both alike), while the outline of
+#: clutter — a shadow, a brick, an animal's fur — is often sharp on one side and soft on the
+#: opposite one (two thirds of the blurred quads of scikit-image's photographs).
+BLURRED_PAIR_RATIO = 1.6
+#: The largest local misfit (in units of the frame's contrast, as ``model_max_misfit``) of a
+#: tag read by model when judged with the blur its sides measure. Drawn with the right blur,
+#: the tag seen explains the frame nearly exactly: 0.02–0.04 under defocus of 2–4 px, up to
+#: about 0.1 under motion blur (whose kernel the sides only approximate); a look-alike's
+#: differing triangle, blurred as much, still leaves 0.17–0.24 — within the nominal limit,
+#: which expects sharp triangles' full contrast.
+BLURRED_MAX_MISFIT = 0.12
+#: The smallest coarse match (:func:`~ottag_db.decode.model_budget.ranking_score`, on 16²
+#: cells, where a blur of up to 4 px is under a cell of a 98 px data area) of a blurred
+#: candidate read by model: a blurred tag's data area correlates 0.75–0.96 with its printed
+#: tag there, the blurred quads of photographs (fur, bricks, text) 0.45–0.67; each reading by
+#: model costs 20–40 ms.
+BLURRED_MIN_RANKING = 0.7
+#: The smallest correlation with the nominal drawing (the first of :data:`NOMINAL_BLURS_PX`)
+#: for which a blurred candidate's aligned tags are judged again with its measured blur: a
+#: tag defocused by up to 4 px or moved by up to 15 px still correlates 0.8–0.96 with its
+#: nominal drawing, while most blurred quads of clutter correlate less with every tag, and
+#: the judging again costs a drawing per blur and aligned tag.
+BLURRED_MIN_NOMINAL_CORRELATION = 0.75
+#: The smallest data area, in blur widths (side / σ), judged with its measured blur: an
+#: 8-point tag's narrowest triangles and gaps are about a twelfth of its side, and a blur of
+#: that width erases them, leaving nothing that tells tags apart; candidates that small are
+#: mostly pieces of a tag's own triangles.
+BLURRED_MIN_SIDE = 12.0
+#: Samples of a side's profile: where along the side (fractions; the corners are left out,
+#: a corner's two sides bend the step there) and how far across it (px of the frame per σ
+#: of the largest blur measured, in steps of half a pixel).
+_ALONG = np.linspace(0.2, 0.8, 9)
+#: Gaussian σ (frame px) of the blurs of a camera in focus and at rest: a tag is drawn with
+#: these when judged by model (:func:`~ottag_db.decode.model_align.judge`), and the optics'
+#: own blur under a motion blur is taken as the middle one.
+NOMINAL_BLURS_PX = (0.45, 0.7, 1.0)
+#: The motion lengths drawn, as fractions of the length the sides measure: a side's width
+#: mixes the motion with the optics' blur, which a box of the measured variance only
+#: approximates (the outline then chooses).
+_MOTION_LENGTHS = (0.8, 1.0, 1.25)
+_ACROSS_MAX = 14.0
+_ACROSS_STEP = 0.5
+
+
+@dataclass(frozen=True)
+class EdgeBlur:
+    """The blur measured across a candidate's four sides.
+
+    Attributes
+    ----------
+    sides : tuple of float
+        σ (frame px) per side, side ``i`` from corner ``i`` to corner ``i + 1``; NaN where too
+        few samples showed a step.
+    normals : numpy.ndarray
+        ``(4, 2)`` the sides' unit normals.
+    """
+
+    sides: tuple[float, ...]
+    normals: _F64
+
+    @property
+    def largest(self) -> float:
+        """The largest side's blur (0.0 when no side was measured)."""
+        finite = [s for s in self.sides if math.isfinite(s)]
+        return max(finite) if finite else 0.0
+
+    @property
+    def blurred(self) -> bool:
+        """Whether these are a blurred tag's sides: the largest blur at least
+        :data:`BLURRED_MIN_SIGMA`, every side measured, and opposite sides blurred alike
+        (within :data:`BLURRED_PAIR_RATIO`)."""
+        if self.largest < BLURRED_MIN_SIGMA or not all(math.isfinite(s) for s in self.sides):
+            return False
+        return all(
+            max(self.sides[i], self.sides[i + 2]) <= BLURRED_PAIR_RATIO * min(self.sides[i], self.sides[i + 2])
+            for i in (0, 1)
+        )
+
+
+@dataclass(frozen=True)
+class Blur:
+    """A camera blur to draw a tag with: a Gaussian of ``sigma`` px, then (``length`` > 1) a
+    linear motion of ``length`` px along ``angle_deg`` (screen coordinates, from the x axis)."""
+
+    sigma: float
+    length: float = 0.0
+    angle_deg: float = 0.0
+
+    def apply(self, image: NDArray[np.float32]) -> NDArray[np.float32]:
+        """``image`` blurred so (float32, same shape).
+
+        Parameters
+        ----------
+        image : numpy.ndarray
+            ``(H, W)`` float32.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
+        out = cv2.GaussianBlur(image, (0, 0), self.sigma)
+        if self.length > 1.0:
+            out = cv2.filter2D(out, -1, motion_kernel(self.length, self.angle_deg), borderType=cv2.BORDER_REPLICATE)
+        return np.asarray(out, dtype=np.float32)
+
+
+def motion_kernel(length: float, angle_deg: float) -> NDArray[np.float32]:
+    """A normalized kernel of a linear motion ``length`` px long along ``angle_deg``.
+
+    Parameters
+    ----------
+    length : float
+        px (> 1).
+    angle_deg : float
+        Direction of the motion, degrees from the x axis (screen coordinates).
+
+    Returns
+    -------
+    numpy.ndarray
+        Odd square float32 kernel summing to 1.
+    """
+    size = math.ceil(length) | 1
+    kernel = np.zeros((size, size), np.float32)
+    c = (size - 1) / 2
+    half = length / 2
+    dx, dy = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    for t in np.linspace(-half, half, 4 * size + 1):  # the segment, area-sampled
+        x, y = c + t * dx, c + t * dy
+        x0, y0 = math.floor(x), math.floor(y)
+        fx, fy = x - x0, y - y0
+        for xx, yy, w in (
+            (x0, y0, (1 - fx) * (1 - fy)),
+            (x0 + 1, y0, fx * (1 - fy)),
+            (x0, y0 + 1, (1 - fx) * fy),
+            (x0 + 1, y0 + 1, fx * fy),
+        ):
+            if 0 <= xx < size and 0 <= yy < size:
+                kernel[yy, xx] += w
+    total = float(kernel.sum())
+    return kernel / total if total > 0 else kernel
+
+
+def camera_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
+    """The blurs a tag is drawn with when judged against a candidate's image.
+
+    The nominal ones (:data:`NOMINAL_BLURS_PX`); for a candidate whose sides measure more
+    (``blur.largest`` above the largest nominal one) also a defocus — a Gaussian of the largest
+    side's σ, a quarter less and more — and a linear motion: a motion of ``L`` px along ``m``
+    widens a side of normal ``n`` to ``σ² = σ₀² + L² (n·m)² / 12`` (a box's variance), so the
+    two pairs of opposite sides give ``L`` and ``m`` up to the mirror image about a side's
+    normal (both are drawn). The judge takes the blur that fits the outline best, alike for
+    every tag.
+
+    Parameters
+    ----------
+    blur : EdgeBlur or None
+        The candidate's measured blur (None: not measured).
+
+    Returns
+    -------
+    tuple of Blur
+        The nominal blurs first.
+    """
+    nominal = tuple(Blur(s) for s in NOMINAL_BLURS_PX)
+    if blur is None or blur.largest <= NOMINAL_BLURS_PX[-1]:
+        return nominal
+    sigma = blur.largest
+    out = [*nominal, Blur(0.75 * sigma), Blur(sigma), Blur(1.25 * sigma)]
+    pairs = []
+    for i in (0, 1):  # opposite sides i, i + 2
+        values = [blur.sides[j] for j in (i, i + 2) if math.isfinite(blur.sides[j])]
+        if not values:
+            return tuple(out)
+        n = blur.normals[i] - blur.normals[i + 2]  # (outward normals of opposite sides: opposed)
+        pairs.append((math.atan2(n[1], n[0]), float(np.median(values))))
+    base = NOMINAL_BLURS_PX[1]
+    theta = np.radians(np.arange(0.0, 180.0, 1.0))
+    spread = np.array([max(s * s - base * base, 0.0) * 12.0 for _, s in pairs])  # L² (n·m)²
+    cos2 = np.stack([np.cos(theta - a) ** 2 for a, _ in pairs])  # (2, angles)
+    # L² per direction by least squares over both pairs, then the direction that fits best
+    l2 = (cos2 * spread[:, None]).sum(axis=0) / np.maximum((cos2 * cos2).sum(axis=0), 1e-9)
+    resid = ((cos2 * l2[None, :] - spread[:, None]) ** 2).sum(axis=0)
+    best = int(np.argmin(resid))
+    length = math.sqrt(max(float(l2[best]), 0.0))
+    if length > 2.0:
+        angle = math.degrees(float(theta[best]))
+        mirror = (math.degrees(2 * pairs[0][0]) - angle) % 180.0  # reflected about the first normal
+        out += [Blur(base, f * length, a) for a in dict.fromkeys((angle, mirror)) for f in _MOTION_LENGTHS]
+    return tuple(out)
+
+
+def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
+    """The blur of a candidate's sides: per side, σ (frame px) of the Gaussian that blurs its step so.
+
+    Each side is sampled across at nine places between 20 % and 80 % of its length; at each,
+    the step's height (twice the distance of the outer third's median grey, the quiet zone,
+    from the grey where the step is steepest, its midpoint) and its steepest slope give
+    ``σ = height / (slope · √(2π))``; a side's blur is the
+    median of its samples (motion blur widens the sides across the motion more than the
+    others: :func:`camera_blurs` reads it from them).
+
+    Parameters
+    ----------
+    gray : numpy.ndarray
+        ``(H, W)`` uint8 frame.
+    quad : Quad
+        The candidate (frame pixels).
+
+    Returns
+    -------
+    EdgeBlur
+        Per side σ in frame px (NaN where no step showed).
+    """
+    corners = quad.corners
+    side = math.sqrt(max(quad.area, 1.0))
+    reach = min(_ACROSS_MAX, max(4.0, 0.2 * side))
+    across = np.arange(-reach, reach + 1e-9, _ACROSS_STEP)
+    centre = corners.mean(axis=0)
+    a = corners
+    b = np.roll(corners, -1, axis=0)
+    direction = b - a
+    length = np.hypot(direction[:, 0], direction[:, 1])
+    normal = np.stack([direction[:, 1], -direction[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
+    mid = (a + b) / 2
+    flip = np.sign(np.einsum("si,si->s", mid - centre, normal))  # outward
+    normal = normal * np.where(flip == 0, 1.0, flip)[:, None]
+    base = a[:, None, :] + _ALONG[None, :, None] * direction[:, None, :]  # (4, M, 2)
+    pts = base[:, :, None, :] + across[None, None, :, None] * normal[:, None, None, :]  # (4, M, P, 2)
+    flat = pts.reshape(-1, len(across), 2).astype(np.float32)
+    profile = cv2.remap(gray, flat[..., 0], flat[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(
+        np.float64
+    )
+    # the step's height from the quiet zone's side only: twice the outer plateau's distance
+    # from the grey at the steepest point (a blurred step's midpoint); inside, the triangles
+    # can come within a few pixels of the data area's border
+    third = max(len(across) // 3, 1)
+    outer = np.median(profile[:, -third:], axis=1)
+    smooth = cv2.GaussianBlur(profile, (5, 1), 0.0, borderType=cv2.BORDER_REPLICATE)
+    steps = np.abs(np.diff(smooth, axis=1))
+    steepest = steps.argmax(axis=1)
+    rows = np.arange(len(smooth))
+    middle = (smooth[rows, steepest] + smooth[rows, steepest + 1]) / 2
+    height = 2 * np.abs(outer - middle)
+    slope = steps[rows, steepest] / _ACROSS_STEP
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sigma = height / (slope * math.sqrt(2 * math.pi))
+    sigma = np.where((height >= 20) & (slope > 0), sigma, np.nan).reshape(4, len(_ALONG))
+    per_side = tuple(
+        float(np.median(s[np.isfinite(s)])) if np.isfinite(s).sum() >= len(_ALONG) // 2 and n >= 4 else math.nan
+        for s, n in zip(sigma, length, strict=True)
+    )
+    return EdgeBlur(per_side, normal)

@@ -1,0 +1,119 @@
+"""Blurred frames: the blur measured on a candidate's sides, the camera blurs a tag is judged
+with, and defocused or moving tags read by model without misreading a look-alike."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from ottag_db.core.lookup import MemoryLookup
+from ottag_db.core.types import Polarity
+from ottag_db.decode import Detector
+from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur, camera_blurs, edge_blur, motion_kernel
+from ottag_db.decode.types import Quad
+from ottag_db.printing import scenes as sc
+from ottag_db.printing.scenes import DrawableTag
+from tests.support.grazing import printed_tags
+
+_UNIT = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+@pytest.fixture(scope="module")
+def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
+    return printed_tags(bundled_db_path)
+
+
+def _motion(image: np.ndarray, length: int, angle: float) -> np.ndarray:
+    return np.asarray(cv2.filter2D(image, -1, motion_kernel(length, angle), borderType=cv2.BORDER_REPLICATE))
+
+
+def _frame(
+    tags: list[DrawableTag], seed: int, polarity: Polarity, defocus: float = 0.0, motion: int = 0
+) -> tuple[DrawableTag, np.ndarray, np.ndarray]:
+    """A tag 98 px wide at 1.5 m, tilted up to 40°, defocused (Gaussian σ px) or moved (px, a
+    random direction), with sensor noise: the tag, the frame and its data area's corners."""
+    rng = np.random.default_rng(seed)
+    tag = tags[seed % len(tags)]
+    spec = sc.posed_spec(tag, rng, 98.0, float(rng.uniform(0, 40)), polarity)
+    image = sc.render_scene((480, 640), [spec], rng, blur=max(defocus, 0.5)).image
+    if motion:
+        image = _motion(image, motion, float(rng.uniform(0, 180)))
+    noisy = np.clip(image + rng.normal(0, 2.0, image.shape), 0, 255).astype(np.uint8)
+    return tag, noisy, sc.project(spec.homography, _UNIT)
+
+
+@pytest.mark.parametrize("sigma", [0.5, 1.5, 2.5, 3.5])
+def test_the_sides_measure_the_defocus(printed, sigma) -> None:
+    """Every side of a defocused data area measures the Gaussian's σ within 25 % (and a sharp
+    one under the nominal blurs' largest, plus the measurement's own smoothing)."""
+    _, tags = printed
+    _, image, corners = _frame(tags, 3, "normal", defocus=sigma)
+    blur = edge_blur(image, Quad("normal", corners, float(cv2.contourArea(corners.astype(np.float32)))))
+    assert all(math.isfinite(s) for s in blur.sides)
+    if sigma < NOMINAL_BLURS_PX[-1]:
+        assert blur.largest < NOMINAL_BLURS_PX[-1]
+    else:
+        assert all(abs(s - sigma) <= 0.25 * sigma for s in blur.sides), blur.sides
+
+
+def test_motion_widens_the_sides_across_it_and_camera_blurs_draw_it(printed) -> None:
+    """A 13 px motion along the data area's first side widens the two sides across it, not the
+    two along it; the camera blurs then include that motion (its length within 30 %, its
+    direction within 10° of the side's, up to the mirror image)."""
+    _, tags = printed
+    rng = np.random.default_rng(5)
+    tag = tags[0]
+    spec = sc.posed_spec(tag, rng, 98.0, 0.0, "normal")
+    image = sc.render_scene((480, 640), [spec], rng, blur=0.5).image
+    corners = sc.project(spec.homography, _UNIT)
+    side = corners[1] - corners[0]
+    angle = math.degrees(math.atan2(side[1], side[0]))
+    moved = _motion(image, 13, angle)
+    blur = edge_blur(moved, Quad("normal", corners, float(cv2.contourArea(corners.astype(np.float32)))))
+    along, across = max(blur.sides[0], blur.sides[2]), min(blur.sides[1], blur.sides[3])
+    assert across > 2.5 * along
+    motions = [b for b in camera_blurs(blur) if b.length > 0]
+    assert motions
+    best = min(motions, key=lambda b: abs(b.length - 13))
+    assert abs(best.length - 13) <= 0.3 * 13
+    turn = min(abs((b.angle_deg - angle) % 180.0) for b in motions)
+    assert min(turn, 180.0 - turn) <= 10.0
+
+
+@given(st.floats(1.5, 25.0), st.floats(0.0, 360.0))
+def test_a_motion_kernel_is_normalized_and_symmetric(length: float, angle: float) -> None:
+    kernel = motion_kernel(length, angle)
+    assert kernel.shape[0] == kernel.shape[1] and kernel.shape[0] % 2 == 1
+    assert math.isclose(float(kernel.sum()), 1.0, rel_tol=1e-5)
+    np.testing.assert_allclose(kernel, kernel[::-1, ::-1], atol=1e-6)  # a motion has no direction sign
+
+
+def test_a_sharp_candidate_is_judged_with_the_nominal_blurs_only() -> None:
+    sharp = EdgeBlur((0.8, 0.7, math.nan, 0.9), np.eye(2)[[0, 1, 0, 1]])
+    assert [b.sigma for b in camera_blurs(sharp)] == list(NOMINAL_BLURS_PX)
+    assert camera_blurs(None) == camera_blurs(sharp)
+
+
+@pytest.mark.parametrize(("defocus", "motion"), [(2.5, 0), (3.0, 0), (0.0, 11)])
+@pytest.mark.parametrize("polarity", ["normal", "inverted"])
+def test_blurred_tags_read_and_no_look_alike_reads_in_their_place(printed, defocus, motion, polarity) -> None:
+    """At a defocus of 2.5–3 px, or a motion of 11 px, the points' tips and gaps are gone: the
+    tag is read by model, judged with the blur its sides measure (before: none of these read).
+    With the tags drawn taken out of the lookup, no other tag is read in their place."""
+    lookup, tags = printed
+    drawn = {t.lambda_text for t in tags}
+    without = MemoryLookup(e for e in lookup if e.lambda_text not in drawn)  # type: ignore[attr-defined]
+    det, det_without = Detector(lookup), Detector(without)
+    read = 0
+    for seed in range(200, 206):
+        tag, image, _ = _frame(tags, seed, polarity, defocus=defocus, motion=motion)
+        found = det.detect(image)
+        assert all(d.lambda_text == tag.lambda_text for d in found)
+        read += any(d.lambda_text == tag.lambda_text for d in found)
+        assert det_without.detect(image) == []
+    assert read >= 4
