@@ -42,10 +42,11 @@ _F32 = NDArray[np.float32]
 BLURRED_MIN_SIGMA = 1.2
 #: The largest ratio of the blurs of a blurred tag's opposite sides. A defocus or a motion
 #: blurs a small tag's opposite, nearly parallel sides alike (defocused tags measure within
-#: 20 %, moving ones within 50 %: the motion crosses both alike), while the outline of
-#: clutter — a shadow, a brick, an animal's fur — is often sharp on one side and soft on the
-#: opposite one (two thirds of the blurred quads of scikit-image's photographs).
-BLURRED_PAIR_RATIO = 1.6
+#: 20 %; moving ones mostly within 50 %, up to 2× where a triangle near a side is smeared
+#: across it), while the outline of clutter — a shadow, a brick, an animal's fur — is often
+#: sharp on one side and soft on the opposite one (half the blurred quads of scikit-image's
+#: photographs).
+BLURRED_PAIR_RATIO = 2.0
 #: The largest local misfit (in units of the frame's contrast, as ``model_max_misfit``) of a
 #: tag read by model when judged with the blur its sides measure. Drawn with the right blur,
 #: the tag seen explains the frame nearly exactly: 0.02–0.04 under defocus of 2–4 px, up to
@@ -190,10 +191,11 @@ def camera_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
     The nominal ones (:data:`NOMINAL_BLURS_PX`); for a candidate whose sides measure more
     (``blur.largest`` above the largest nominal one) also a defocus — a Gaussian of the largest
     side's σ, a quarter less and more — and a linear motion: a motion of ``L`` px along ``m``
-    widens a side of normal ``n`` to ``σ² = σ₀² + L² (n·m)² / 12`` (a box's variance), so the
-    two pairs of opposite sides give ``L`` and ``m`` up to the mirror image about a side's
-    normal (both are drawn). The judge takes the blur that fits the outline best, alike for
-    every tag.
+    smears a side of normal ``n`` over ``L |n·m|`` px, which the steepest slope of
+    :func:`edge_blur` measures as ``σ = L |n·m| / √(2π)`` (σ² = σ₀² + L² (n·m)² / 2π, the optics'
+    blur σ₀ added), so the two pairs of opposite sides give ``L`` and ``m`` up to the mirror
+    image about a side's normal (both are drawn). The judge takes the blur that fits the tag's
+    whole view best (:func:`~ottag_db.decode.model_align.judge`).
 
     Parameters
     ----------
@@ -219,7 +221,7 @@ def camera_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
         pairs.append((math.atan2(n[1], n[0]), float(np.median(values))))
     base = NOMINAL_BLURS_PX[1]
     theta = np.radians(np.arange(0.0, 180.0, 1.0))
-    spread = np.array([max(s * s - base * base, 0.0) * 12.0 for _, s in pairs])  # L² (n·m)²
+    spread = np.array([max(s * s - base * base, 0.0) * 2 * math.pi for _, s in pairs])  # L² (n·m)²
     cos2 = np.stack([np.cos(theta - a) ** 2 for a, _ in pairs])  # (2, angles)
     # L² per direction by least squares over both pairs, then the direction that fits best
     l2 = (cos2 * spread[:, None]).sum(axis=0) / np.maximum((cos2 * cos2).sum(axis=0), 1e-9)

@@ -120,7 +120,7 @@ class Aligned:
     differs. The quiet misfit is the mean absolute residual over the quiet band around the
     data area, with the scale and offset fitted inside it: the band must be as bright or dark
     as the reading's polarity prints it. ``blurred_correlation``: the correlation with the blur
-    that fits the outline when the candidate's sides measure a blur beyond the nominal ones
+    that fits the whole view best when the candidate's sides measure a blur beyond the nominal ones
     (:func:`~ottag_db.decode.blur.camera_blurs`), else ``correlation``; it must reach the minimum correlation, while
     the gap to the other tags is judged on ``correlation``."""
 
@@ -375,6 +375,12 @@ def judge(
     # limit of 0.28: normal tags 3 points behind inverted ones, benchmarks/decode_sweeps.py)
     s_outline = seen[_FINE_OUTLINE]
     expected = min(blurred, key=lambda e: _contrast_residual(e[_FINE_OUTLINE], s_outline))
+    if len(blurred) > len(NOMINAL_BLURS_PX):
+        # a blurred candidate's measured blurs: the one that fits the whole view best, the
+        # triangles included: a motion's direction is up to its mirror image in the sides, and
+        # only the triangles' smear tells the two apart (each tag fits its own best blur, and
+        # the strict misfit limit of a blurred candidate, blur.BLURRED_MAX_MISFIT, holds)
+        expected = min(blurred, key=lambda e: _contrast_residual(e.ravel(), seen.ravel()))
     pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
     # on a blurred candidate also with the blur that fits its outline: a tag blurred by 3.5 px
     # correlates 0.89 with its nominal drawing (its look-alikes 0.4-0.8), 1.00 with its blurred
