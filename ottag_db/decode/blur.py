@@ -28,8 +28,8 @@ __all__ = [
     "NOMINAL_BLURS_PX",
     "Blur",
     "EdgeBlur",
-    "camera_blurs",
     "edge_blur",
+    "measured_blurs",
 ]
 
 _F64 = NDArray[np.float64]
@@ -82,7 +82,10 @@ NOMINAL_BLURS_PX = (0.45, 0.7, 1.0)
 #: The motion lengths drawn, as fractions of the length the sides measure: a side's width
 #: mixes the motion with the optics' blur, which a box of the measured variance only
 #: approximates (the outline then chooses).
-_MOTION_LENGTHS = (0.8, 1.0, 1.25)
+_MOTION_LENGTHS = (0.7, 0.85, 1.0, 1.15, 1.3)
+#: The motion directions drawn about each one the sides give (degrees): the sides' widths
+#: place it within about 10°.
+_MOTION_TURNS = (-10.0, 0.0, 10.0)
 _ACROSS_MAX = 14.0
 _ACROSS_STEP = 0.5
 
@@ -185,17 +188,18 @@ def motion_kernel(length: float, angle_deg: float) -> NDArray[np.float32]:
     return kernel / total if total > 0 else kernel
 
 
-def camera_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
-    """The blurs a tag is drawn with when judged against a candidate's image.
+def measured_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
+    """The blurs a blurred candidate's sides allow, to draw a tag with when it is judged.
 
-    The nominal ones (:data:`NOMINAL_BLURS_PX`); for a candidate whose sides measure more
-    (``blur.largest`` above the largest nominal one) also a defocus — a Gaussian of the largest
+    For a candidate whose sides measure more than the nominal blurs (:data:`NOMINAL_BLURS_PX`;
+    ``blur.largest`` above the largest) a defocus — a Gaussian of the largest
     side's σ, a quarter less and more — and a linear motion: a motion of ``L`` px along ``m``
     smears a side of normal ``n`` over ``L |n·m|`` px, which the steepest slope of
     :func:`edge_blur` measures as ``σ = L |n·m| / √(2π)`` (σ² = σ₀² + L² (n·m)² / 2π, the optics'
     blur σ₀ added), so the two pairs of opposite sides give ``L`` and ``m`` up to the mirror
-    image about a side's normal (both are drawn). The judge takes the blur that fits the tag's
-    whole view best (:func:`~ottag_db.decode.model_align.judge`).
+    image about a side's normal (both are drawn, each in lengths and directions about the
+    measured ones). Reading by model takes the one that fits the best aligned tag's whole view
+    (:func:`~ottag_db.decode.model_align.fit_blur`) and judges every tag with it.
 
     Parameters
     ----------
@@ -205,13 +209,12 @@ def camera_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
     Returns
     -------
     tuple of Blur
-        The nominal blurs first.
+        Empty when the sides measure no more than the nominal blurs.
     """
-    nominal = tuple(Blur(s) for s in NOMINAL_BLURS_PX)
     if blur is None or blur.largest <= NOMINAL_BLURS_PX[-1]:
-        return nominal
+        return ()
     sigma = blur.largest
-    out = [*nominal, Blur(0.75 * sigma), Blur(sigma), Blur(1.25 * sigma)]
+    out = [Blur(0.75 * sigma), Blur(sigma), Blur(1.25 * sigma)]
     pairs = []
     for i in (0, 1):  # opposite sides i, i + 2
         values = [blur.sides[j] for j in (i, i + 2) if math.isfinite(blur.sides[j])]
@@ -231,7 +234,8 @@ def camera_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
     if length > 2.0:
         angle = math.degrees(float(theta[best]))
         mirror = (math.degrees(2 * pairs[0][0]) - angle) % 180.0  # reflected about the first normal
-        out += [Blur(base, f * length, a) for a in dict.fromkeys((angle, mirror)) for f in _MOTION_LENGTHS]
+        angles = [(a + turn) % 180.0 for a in dict.fromkeys((angle, mirror)) for turn in _MOTION_TURNS]
+        out += [Blur(base, f * length, a) for a in angles for f in _MOTION_LENGTHS]
     return tuple(out)
 
 
@@ -243,7 +247,7 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     from the grey where the step is steepest, its midpoint) and its steepest slope give
     ``σ = height / (slope · √(2π))``; a side's blur is the
     median of its samples (motion blur widens the sides across the motion more than the
-    others: :func:`camera_blurs` reads it from them).
+    others: :func:`measured_blurs` reads it from them).
 
     Parameters
     ----------

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur, camera_blurs
+from ottag_db.decode.blur import NOMINAL_BLURS_PX, Blur
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_area_depths, square_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
 
@@ -120,8 +120,8 @@ class Aligned:
     differs. The quiet misfit is the mean absolute residual over the quiet band around the
     data area, with the scale and offset fitted inside it: the band must be as bright or dark
     as the reading's polarity prints it. ``blurred_correlation``: the correlation with the blur
-    that fits the whole view best when the candidate's sides measure a blur beyond the nominal ones
-    (:func:`~ottag_db.decode.blur.camera_blurs`), else ``correlation``; it must reach the minimum correlation, while
+    measured on a blurred candidate (:func:`fit_blur`) when it is judged with it, else
+    ``correlation``; it must reach the minimum correlation, while
     the gap to the other tags is judged on ``correlation``."""
 
     row: int
@@ -330,24 +330,74 @@ def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_
 
 
 def align(
-    roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, blur: EdgeBlur | None = None
+    roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, frame_blur: Blur | None = None
 ) -> Aligned | None:
     """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`ecc`),
-    judged against the tag as the camera would see it there; None when ECC fails."""
+    judged against the tag as the camera would see it there (``frame_blur``: see
+    :func:`judge`); None when ECC fails."""
     template = fine_template(bank.triangles[row], view.polarity)
     found = ecc(roi, origin, template, view.corners)
     if found is None:
         return None
-    return judge(roi, origin, bank, row, view, found[0], blur)
+    return judge(roi, origin, bank, row, view, found[0], frame_blur)
+
+
+def _drawn(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64) -> _F32:
+    """Template ``row`` drawn into the frame's ``roi`` through ``to_frame`` (unblurred; the
+    data area's tones in ``[0, 1]``, triangles bright in a normal view)."""
+    drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, to_roi(origin) @ to_frame, (roi.shape[0], roi.shape[1]))
+    return np.float32(1.0) - drawn if view.polarity == "inverted" else drawn
+
+
+def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blurs: tuple[Blur, ...]) -> Blur | None:
+    """The blur, of ``blurs``, under which the aligned tag fits its whole view best (the
+    quiet band, the rim and the triangles: a motion's direction is known from the sides only
+    up to its mirror image, and only the triangles' smear tells the two apart).
+
+    Parameters
+    ----------
+    roi, origin : numpy.ndarray
+        The frame around the candidate and the frame position of its pixel (0, 0).
+    bank : TemplateBank
+        The printed tags.
+    aligned : Aligned
+        The tag that best explains the candidate with the nominal blurs.
+    blurs : tuple of Blur
+        The candidate's measured blurs (:func:`~ottag_db.decode.blur.measured_blurs`).
+
+    Returns
+    -------
+    Blur or None
+        None when ``blurs`` is empty.
+    """
+    if not blurs:
+        return None
+    warp = to_roi(origin) @ aligned.to_frame @ _FINE_PX_TO_UNIT
+    size = (_FINE_GRID, _FINE_GRID)
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    seen = np.asarray(cv2.warpPerspective(roi, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE), np.float32)
+    drawn = _drawn(roi, origin, bank, aligned.row, aligned.view, aligned.to_frame)
+
+    def residual(kind: Blur) -> float:
+        view = cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
+        return _contrast_residual(np.asarray(view, np.float32).ravel(), seen.ravel())
+
+    return min(blurs, key=residual)
 
 
 def judge(
-    roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64, blur: EdgeBlur | None = None
+    roi: _F32,
+    origin: _F64,
+    bank: TemplateBank,
+    row: int,
+    view: View,
+    to_frame: _F64,
+    frame_blur: Blur | None = None,
 ) -> Aligned:
     """Template ``row`` judged against the frame under the homography ``to_frame`` (data-area
-    units → frame), as the camera would see it there (see :class:`Aligned`); ``blur``: the
-    candidate's measured edge blur (:func:`~ottag_db.decode.blur.edge_blur`), whose blurs the
-    misfits may take too (:func:`~ottag_db.decode.blur.camera_blurs`)."""
+    units → frame), as the camera would see it there (see :class:`Aligned`); ``frame_blur``:
+    the blur a blurred candidate's sides and best tag measure (:func:`fit_blur`), which the
+    misfits and ``blurred_correlation`` then take, for every tag alike."""
     warp = to_roi(origin) @ to_frame @ _FINE_PX_TO_UNIT
     size = (_FINE_GRID, _FINE_GRID)
     flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
@@ -356,15 +406,14 @@ def judge(
     # image, then sampled back like the frame: at a grazing view each pixel averages a long
     # strip of the data area, which a template blurred in data-area units does not model (the
     # correct tag's sliver tips then misfit like a different tag's triangle).
-    drawn = draw_through(bank.triangles[row], _DRAWN_QUIET, to_roi(origin) @ to_frame, (roi.shape[0], roi.shape[1]))
-    if view.polarity == "inverted":
-        drawn = np.float32(1.0) - drawn
+    drawn = _drawn(roi, origin, bank, row, view, to_frame)
+    kinds = [Blur(sigma) for sigma in NOMINAL_BLURS_PX] + ([] if frame_blur is None else [frame_blur])
     blurred = [
         np.asarray(
             cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE),
             dtype=np.float32,
         )
-        for kind in camera_blurs(blur)
+        for kind in kinds
     ]
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
@@ -375,18 +424,14 @@ def judge(
     # limit of 0.28: normal tags 3 points behind inverted ones, benchmarks/decode_sweeps.py)
     s_outline = seen[_FINE_OUTLINE]
     expected = min(blurred, key=lambda e: _contrast_residual(e[_FINE_OUTLINE], s_outline))
-    if len(blurred) > len(NOMINAL_BLURS_PX):
-        # a blurred candidate's measured blurs: the one that fits the whole view best, the
-        # triangles included: a motion's direction is up to its mirror image in the sides, and
-        # only the triangles' smear tells the two apart (each tag fits its own best blur, and
-        # the strict misfit limit of a blurred candidate, blur.BLURRED_MAX_MISFIT, holds)
-        expected = min(blurred, key=lambda e: _contrast_residual(e.ravel(), seen.ravel()))
+    if frame_blur is not None:  # the blur measured on the candidate, for every tag alike
+        expected = blurred[-1]
     pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
     # on a blurred candidate also with the blur that fits its outline: a tag blurred by 3.5 px
     # correlates 0.89 with its nominal drawing (its look-alikes 0.4-0.8), 1.00 with its blurred
     # one (and the look-alikes 0.97-0.98: blur compresses the gaps, which the nominal one keeps)
     fitted = pair[0] @ pair[1]
-    if len(blurred) > len(NOMINAL_BLURS_PX):
+    if frame_blur is not None:
         both = normalized_rows(np.stack([expected[inside, inside].ravel(), s_in.ravel()]))
         fitted = both[0] @ both[1]
     e_in = expected[inside, inside]
