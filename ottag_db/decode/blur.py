@@ -295,8 +295,11 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     with np.errstate(divide="ignore", invalid="ignore"):
         sigma = height / (slope * math.sqrt(2 * math.pi))
     sigma = np.where((height >= 20) & (slope > 0), sigma, np.nan).reshape(4, len(_ALONG))
-    per_side = tuple(
-        float(np.median(s[np.isfinite(s)])) if np.isfinite(s).sum() >= len(_ALONG) // 2 and n >= 4 else math.nan
-        for s, n in zip(sigma, length, strict=True)
-    )
-    return EdgeBlur(per_side, normal)
+    # each side's median over its finite samples in one sort (NaN sorts last)
+    ordered = np.sort(sigma, axis=1)
+    count = np.isfinite(sigma).sum(axis=1)
+    low = np.take_along_axis(ordered, np.maximum((count - 1) // 2, 0)[:, None], axis=1)[:, 0]
+    high = np.take_along_axis(ordered, np.minimum(count // 2, len(_ALONG) - 1)[:, None], axis=1)[:, 0]
+    median = np.where(count % 2 == 1, low, (low + high) / 2)
+    per_side = np.where((count >= len(_ALONG) // 2) & (length >= 4), median, np.nan)
+    return EdgeBlur(tuple(float(v) for v in per_side), normal)

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
-from ottag_db.decode.blur import BLURRED_MIN_RANKING, edge_blur
+from ottag_db.decode.blur import BLURRED_MIN_RANKING, BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, edge_blur
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
@@ -290,7 +290,9 @@ class Detector:
         """Whether a candidate the points did not read looks like a blurred tag: its sides are
         blurred alike (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`) and its coarse match
         looks like a printed tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`)."""
-        if self._bank is None or not edge_blur(gray, quad).blurred:
+        if self._bank is None or math.sqrt(quad.area) < BLURRED_MIN_SIDE * BLURRED_MIN_SIGMA:
+            return False  # too small to hold a tag blurred that much (blur.BLURRED_MIN_SIDE)
+        if not edge_blur(gray, quad).blurred:
             return False
         return ranking_score(gray, quad, self._bank, self._params) >= BLURRED_MIN_RANKING
 
