@@ -436,8 +436,13 @@ def judge(
         fitted = both[0] @ both[1]
     e_in = expected[inside, inside]
     coef = _contrast_fit(e_in.ravel(), s_in.ravel())
-    resid = np.abs(s_in - (coef[0] * e_in + coef[1]))
-    local = cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE)
+    resid = s_in - (coef[0] * e_in + coef[1])
+    if frame_blur is None:
+        resid = np.abs(resid)
+    # with a measured blur, the signed residual is averaged: a differing triangle leaves a patch
+    # of one sign, while the sensor noise of a dim, blurred frame averages out (its absolute
+    # value alone filled a quarter of the strict limit, blur.BLURRED_MAX_MISFIT)
+    local = np.abs(cv2.boxFilter(resid, -1, (_MISFIT_WINDOW, _MISFIT_WINDOW), borderType=cv2.BORDER_REPLICATE))
     misfit = float(local.max() / max(abs(float(coef[0])), 1e-6))
     # the quiet band under the same scale and offset: as bright (normal) or dark (inverted) as
     # the print, where the data area alone can pass for the other polarity's
