@@ -33,17 +33,20 @@ def _motion(image: np.ndarray, length: int, angle: float) -> np.ndarray:
 
 
 def _frame(
-    tags: list[DrawableTag], seed: int, polarity: Polarity, defocus: float = 0.0, motion: int = 0
+    tags: list[DrawableTag], seed: int, polarity: Polarity, defocus: float = 0.0, motion: int = 0, dim: bool = False
 ) -> tuple[DrawableTag, np.ndarray, np.ndarray]:
     """A tag 98 px wide at 1.5 m, tilted up to 40°, defocused (Gaussian σ px) or moved (px, a
-    random direction), with sensor noise: the tag, the frame and its data area's corners."""
+    random direction), with sensor noise (``dim``: the contrast a quarter, the noise σ 6): the
+    tag, the frame and its data area's corners."""
     rng = np.random.default_rng(seed)
     tag = tags[seed % len(tags)]
     spec = sc.posed_spec(tag, rng, 98.0, float(rng.uniform(0, 40)), polarity)
-    image = sc.render_scene((480, 640), [spec], rng, blur=max(defocus, 0.5)).image
+    image = sc.render_scene((480, 640), [spec], rng, blur=max(defocus, 0.5)).image.astype(np.float64)
     if motion:
         image = _motion(image, motion, float(rng.uniform(0, 180)))
-    noisy = np.clip(image + rng.normal(0, 2.0, image.shape), 0, 255).astype(np.uint8)
+    if dim:
+        image = image.mean() + 0.25 * (image - image.mean())
+    noisy = np.clip(np.rint(image + rng.normal(0, 6.0 if dim else 2.0, image.shape)), 0, 255).astype(np.uint8)
     return tag, noisy, sc.project(spec.homography, _UNIT)
 
 
@@ -99,19 +102,22 @@ def test_a_sharp_candidate_is_judged_with_the_nominal_blurs_only() -> None:
     assert measured_blurs(sharp) == () == measured_blurs(None)
 
 
-@pytest.mark.parametrize(("defocus", "motion"), [(2.5, 0), (3.0, 0), (0.0, 11)])
+@pytest.mark.parametrize(
+    ("defocus", "motion", "dim"), [(2.5, 0, False), (3.0, 0, False), (0.0, 11, False), (2.5, 0, True)]
+)
 @pytest.mark.parametrize("polarity", ["normal", "inverted"])
-def test_blurred_tags_read_and_no_look_alike_reads_in_their_place(printed, defocus, motion, polarity) -> None:
-    """At a defocus of 2.5–3 px, or a motion of 11 px, the points' tips and gaps are gone: the
-    tag is read by model, judged with the blur its sides measure (before: none of these read).
-    With the tags drawn taken out of the lookup, no other tag is read in their place."""
+def test_blurred_tags_read_and_no_look_alike_reads_in_their_place(printed, defocus, motion, dim, polarity) -> None:
+    """At a defocus of 2.5–3 px, or a motion of 11 px, also in dim light, the points' tips and
+    gaps are gone: the tag is read by model, judged with the blur its sides measure (before:
+    none of these read). With the tags drawn taken out of the lookup, no other tag is read in
+    their place."""
     lookup, tags = printed
     drawn = {t.lambda_text for t in tags}
     without = MemoryLookup(e for e in lookup if e.lambda_text not in drawn)  # type: ignore[attr-defined]
     det, det_without = Detector(lookup), Detector(without)
     read = 0
     for seed in range(200, 206):
-        tag, image, _ = _frame(tags, seed, polarity, defocus=defocus, motion=motion)
+        tag, image, _ = _frame(tags, seed, polarity, defocus=defocus, motion=motion, dim=dim)
         found = det.detect(image)
         assert all(d.lambda_text == tag.lambda_text for d in found)
         read += any(d.lambda_text == tag.lambda_text for d in found)
