@@ -207,6 +207,30 @@ _REFINE_FR = np.linspace(0.08, 0.92, 16)
 _REFINE_OFFS = np.linspace(-3.0, 3.0, 13)
 _REFINE_MID = np.abs(0.5 * (_REFINE_OFFS[1:] + _REFINE_OFFS[:-1]))
 
+#: A data-area side sample within this distance (px) of a triangle side is suspect: the
+#: crossing search reaches 3 px either side of the rough line, which can itself lie a pixel or
+#: two off the border, so the ``level`` crossing nearest the line may be the triangle's edge
+#: rather than the border's. Such crossings sat 3.6-3.9 px from the rough triangle sides on
+#: data areas 28-34 px wide; 4 px caught only some of them, 6 px did no better than 5.
+_QUAD_NEAR_PX = 5.0
+#: ... and it is dropped when its crossing lies farther than this (px) from the side's first
+#: fit (a border crossing scatters by a tenth of a pixel under noise; one at a triangle's edge
+#: lay 2-5 px off). Dropping every sample near a triangle instead, without this test, made the
+#: result hinge on the distance (3.5 px: hardly any effect, 4.5 px: a flip not flagged) and fit
+#: sides with as few as 3 clustered samples.
+_QUAD_OUTLIER_PX = 1.0
+
+
+def _fit_samples(px: _F64, py: _F64, w: _F64, cnt: _F64) -> tuple[_F64, _F64]:
+    """Weighted least-squares lines of the ``(S, M)`` points ``(px, py)``, ``cnt = w.sum(axis=1)``."""
+    cnt_safe = np.maximum(cnt, 1)
+    mx_ = (w * px).sum(axis=1) / cnt_safe
+    my_ = (w * py).sum(axis=1) / cnt_safe
+    qx = px - mx_[:, None]
+    qy = py - my_[:, None]
+    wdx = w * qx
+    return lines_from_moments(mx_, my_, (wdx * qx).sum(axis=1), (wdx * qy).sum(axis=1), (w * qy * qy).sum(axis=1))
+
 
 def refine_lines(
     img: NDArray[np.float32],
@@ -229,6 +253,11 @@ def refine_lines(
     triangle side must be at least ``min(3 px, 0.6 × the side's widest sample)``. Across a
     sliver narrower than the blur the grey level never reaches the bright level and the
     crossings move inward, which would make needle tips overshoot along their axis.
+
+    A data-area side is fitted twice: its samples within :data:`_QUAD_NEAR_PX` of a triangle
+    side whose crossing lies over :data:`_QUAD_OUTLIER_PX` from the first fit (the crossing
+    found was the triangle's edge, not the border) are left out of the second. A side left with
+    fewer than 3 samples keeps its first fit.
 
     Returns
     -------
@@ -253,13 +282,14 @@ def refine_lines(
     # sample positions along each side (the vertices lie on their lines: no projection needed)
     # (S, M) per coordinate: numpy broadcasts over a last axis of length 2 three times slower
     base = [a[:, c, None] + _REFINE_FR[None, :] * sd[:, c, None] for c in (0, 1)]
-    # distance of every triangle sample to every other triangle side segment, by coordinate
+    # distance of every sample (of the data-area sides too) to every triangle side segment
+    # other than its own, by coordinate
     # (plain broadcasts: einsum's set-up costs more than these few thousand products)
-    bx, by = base[0][:st, :, None], base[1][:st, :, None]  # (St, M, 1)
+    bx, by = base[0][:, :, None], base[1][:, :, None]  # (S, M, 1)
     ax, ay = a[:st, 0], a[:st, 1]
     dx, dy = sd[:st, 0], sd[:st, 1]
     ln2 = np.maximum(dx * dx + dy * dy, 1e-12)
-    rx = bx - ax  # (St, M, St)
+    rx = bx - ax  # (S, M, St)
     ry = by - ay
     u = (rx * dx + ry * dy) / ln2
     np.clip(u, 0.0, 1.0, out=u)
@@ -267,10 +297,10 @@ def refine_lines(
     ry -= u * dy
     gap = rx * rx + ry * ry
     gap[np.arange(st), :, np.arange(st)] = np.inf
-    width = np.sqrt(gap.min(axis=2))  # (St, M)
+    width = np.sqrt(gap.min(axis=2, initial=np.inf))  # (S, M)
     m_fr = len(_REFINE_FR)
     wide = np.ones((s, m_fr), dtype=bool)
-    wide[:st] = width >= np.minimum(3.0, 0.6 * width.max(axis=1))[:, None]
+    wide[:st] = width[:st] >= np.minimum(3.0, 0.6 * width[:st].max(axis=1, initial=0.0))[:, None]
     offs = _REFINE_OFFS
     n_o = len(offs)
     # sample grid (S, M, O, 2), built in float32 for remap, one coordinate at a time
@@ -301,13 +331,18 @@ def refine_lines(
     w = valid.astype(np.float64)
     cnt = w.sum(axis=1)
     good = (cnt >= 3) & finite
-    cnt_safe = np.maximum(cnt, 1)
-    mx_ = (w * px).sum(axis=1) / cnt_safe
-    my_ = (w * py).sum(axis=1) / cnt_safe
-    px -= mx_[:, None]
-    py -= my_[:, None]
-    wdx = w * px
-    n2, c2 = lines_from_moments(mx_, my_, (wdx * px).sum(axis=1), (wdx * py).sum(axis=1), (w * py * py).sum(axis=1))
+    n2, c2 = _fit_samples(px, py, w, cnt)
+    if quad is not None:  # the data-area sides again, without crossings at a triangle's edge
+        qn, qc = n2[st:], c2[st:]
+        res = np.abs(qn[:, 0, None] * px[st:] + qn[:, 1, None] * py[st:] - qc[:, None])  # (4, M)
+        drop = valid[st:] & (width[st:] < _QUAD_NEAR_PX) & (res > _QUAD_OUTLIER_PX)
+        if drop.any():
+            wq = np.where(drop, 0.0, w[st:])
+            cq = wq.sum(axis=1)
+            nq, cq_off = _fit_samples(px[st:], py[st:], wq, cq)
+            redo = drop.any(axis=1) & (cq >= 3)
+            n2[st:] = np.where(redo[:, None], nq, qn)
+            c2[st:] = np.where(redo, cq_off, qc)
     # keep the orientation of the old normal
     flip = (n2 * normal).sum(axis=1) < 0
     n2[flip] *= -1

@@ -51,3 +51,32 @@ def test_refine_moves_lines_to_the_grey_level_edge() -> None:
     n0, c0 = fit_chains(chains)
     n1, c1 = refine_lines(np.zeros((100, 100), np.float32), n0, c0, triangle_vertices(n0, c0), 127.5)
     assert np.array_equal(n1, n0) and np.array_equal(c1, c0)
+
+
+def _dark_square_with_bright_triangle(quad: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """60×60 grey image: a dark data area on white with a white triangle, drawn 8× and reduced, blur σ 0.6 px."""
+    big = np.full((480, 480), 255, np.uint8)
+    cv2.fillPoly(big, [np.round((quad + 0.5) * 8 - 0.5).astype(np.int32)], 0)
+    cv2.fillPoly(big, [np.round((tri + 0.5) * 8 - 0.5).astype(np.int32)], 255)
+    img = cv2.resize(big, (60, 60), interpolation=cv2.INTER_AREA).astype(np.float32)
+    return cv2.GaussianBlur(img, (0, 0), 0.6)
+
+
+def test_refine_quad_ignores_a_triangle_edge_near_the_border() -> None:
+    # a 30 px data area, a triangle side 4 px inside its top side along half of it, and a rough
+    # top side 2.5 px inward at its right end: there the crossing nearest the rough line is the
+    # triangle's edge (the fit with it put the corners 0.8 px off)
+    quad = np.array([[15.0, 15.0], [45.0, 15.0], [45.0, 45.0], [15.0, 45.0]])
+    rough = quad + np.array([[0.0, 0.0], [0.0, 2.5], [0.0, 0.0], [0.0, 0.0]])
+    corners = {}
+    for name, tri in (
+        ("near", np.array([[27.0, 19.0], [41.0, 19.0], [34.0, 32.0]])),
+        ("far", np.array([[27.0, 27.0], [41.0, 27.0], [34.0, 40.0]])),
+    ):
+        chains = [np.linspace(tri[j], tri[(j + 1) % 3], 12)[1:-1] for j in range(3)]
+        img = _dark_square_with_bright_triangle(quad, tri)
+        _, got = refine(img, Decomposition(tuple(chains)), 127.5, rough)
+        assert got is not None
+        corners[name] = got
+    assert np.abs(corners["near"] - quad).max() < 0.25
+    assert np.abs(corners["near"] - corners["far"]).max() < 0.05
