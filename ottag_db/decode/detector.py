@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
-from ottag_db.decode.blur import BLURRED_MIN_RANKING, BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, edge_blur
+from ottag_db.decode.blur import BLURRED_MIN_RANKING, BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, edge_blur
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
@@ -222,7 +222,8 @@ class Detector:
             outlined_again = [outlined_before(q, seen) for q in quads]
             seen.extend(quads)
             clock.lap("candidates")
-            by_model: list[tuple[Quad, Rejection]] = []  # read by model after the pass
+            # read by model after the pass; a blurred one with its blur and coarse match
+            by_model: list[tuple[Quad, Rejection, tuple[EdgeBlur, float] | None]] = []
             for quad, again in sorted(zip(quads, outlined_again, strict=True), key=lambda c: c[0].area):
                 skip = around_detection(quad, detections)
                 clock.lap("candidates")
@@ -233,8 +234,8 @@ class Detector:
                 once = again or quad.inferred
                 result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
                 # blurred sides: the points' tips and gaps are gone at every scale (reading by model)
-                blurred = isinstance(result, Rejection) and not once and self._blurred_tag(gray, quad)
-                if isinstance(result, Rejection) and not once and not blurred:
+                blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not once else None
+                if isinstance(result, Rejection) and not once and blurred is None:
                     if result.reason in _RETRY_UPSAMPLED and result.decomposed:
                         result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)
                     if isinstance(result, Rejection) and wants_rectified(quad, result, _RETRY_UPSAMPLED, p):
@@ -245,10 +246,10 @@ class Detector:
                         rejected.append(result.at(quad))  # two readings disagree: not read by model again
                         continue
                 wanted = isinstance(result, Rejection) and wants_model(
-                    quad, result, _RETRY_UPSAMPLED, p, edge_on, blurred
+                    quad, result, _RETRY_UPSAMPLED, p, edge_on, blurred is not None
                 )
                 if isinstance(result, Rejection) and self._bank and wanted:
-                    by_model.append((quad, result))
+                    by_model.append((quad, result, blurred))
                 elif isinstance(result, Rejection):
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):
@@ -256,28 +257,28 @@ class Detector:
             # last, and only off the tags this pass decoded (pieces of a tag are not tags), within
             # the pass's budget: to the candidates most like a printed tag
             bank = self._bank
-            queue: list[tuple[Quad, Rejection]] = []
-            for quad, first in by_model:
-                if within_detection(quad, detections):
-                    rejected.append(first.at(quad))
-                else:
-                    queue.append((quad, first))
-            # ranked only when the pass's candidates outnumber its readings (a coarse match each)
+            queue = [entry for entry in by_model if not within_detection(entry[0], detections)]
+            rejected.extend(first.at(quad) for quad, first, _ in by_model if within_detection(quad, detections))
+            # ranked only when the pass's candidates outnumber its readings (a coarse match each,
+            # measured already for a blurred one)
             ranked = bank is not None and len(queue) > p.model_max_reads
-            scores = [ranking_score(gray, q, bank, p) if bank is not None and ranked else 0.0 for q, _ in queue]
+            scores = [
+                (measured[1] if measured else ranking_score(gray, q, bank, p)) if bank is not None and ranked else 0.0
+                for q, _, measured in queue
+            ]
             chosen, passed_over = rank_for_model(scores, p.model_max_reads)
             clock.lap("model")
             for i in passed_over:
-                quad, first = queue[i]
+                quad, first, _ = queue[i]
                 note = f"not read by model: the pass's {p.model_max_reads} readings went to candidates more like a tag"
                 rejected.append(replace(first, detail=f"{first.detail}; {note}".lstrip("; ")).at(quad))
             for i in chosen:
-                quad, first = queue[i]
+                quad, first, measured = queue[i]
                 if bank is None or within_detection(quad, detections):  # of a tag read by model just now
                     rejected.append(first.at(quad))
                     continue
                 rivals = tuple(g for q, g in guesses if same_quad(q, quad))
-                result = read_model(gray, quad, first, bank, p, clock, rivals)
+                result = read_model(gray, quad, first, bank, p, clock, rivals, measured[0] if measured else None)
                 if isinstance(result, Rejection):
                     if result.model_best is not None:
                         guesses.append((quad, result.model_best))
@@ -286,15 +287,18 @@ class Detector:
                     detections.append(result)
         return [in_frame_corners(d, gray.shape) for d in detections], rejected
 
-    def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> bool:
-        """Whether a candidate the points did not read looks like a blurred tag: its sides are
-        blurred alike (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`) and its coarse match
-        looks like a printed tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`)."""
+    def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> tuple[EdgeBlur, float] | None:
+        """A candidate the points did not read that looks like a blurred tag — its sides blurred
+        alike (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`), its coarse match like a printed
+        tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`) — as its blur and coarse match
+        (for reading by model); else None."""
         if self._bank is None or math.sqrt(quad.area) < BLURRED_MIN_SIDE * BLURRED_MIN_SIGMA:
-            return False  # too small to hold a tag blurred that much (blur.BLURRED_MIN_SIDE)
-        if not edge_blur(gray, quad).blurred:
-            return False
-        return ranking_score(gray, quad, self._bank, self._params) >= BLURRED_MIN_RANKING
+            return None  # too small to hold a tag blurred that much (blur.BLURRED_MIN_SIDE)
+        blur = edge_blur(gray, quad)
+        if not blur.blurred:
+            return None
+        score = ranking_score(gray, quad, self._bank, self._params)
+        return (blur, score) if score >= BLURRED_MIN_RANKING else None
 
 
 def read_quad(

@@ -66,6 +66,7 @@ from ottag_db.decode.blur import (
     BLURRED_MIN_NOMINAL_CORRELATION,
     BLURRED_MIN_SIDE,
     Blur,
+    EdgeBlur,
     edge_blur,
     measured_blurs,
 )
@@ -130,10 +131,8 @@ def wants_model(
         the other passes such quads are mostly thin dark strips of clutter (one frame in four
         of benchmarks/decode_speed.py, 10–90 ms each by model).
     blurred : bool, optional
-        The candidate's sides are blurred (:func:`~ottag_db.decode.blur.edge_blur` at least
-        :data:`~ottag_db.decode.blur.BLURRED_MIN_SIGMA`): any view of any size is read by
-        model when its points did not read, ``"low_contrast"`` included (blur lowers the
-        contrast of small triangles and merges the others).
+        A blurred tag's candidate (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`): read by model
+        at any size and view, ``"low_contrast"`` included (blur dims and merges triangles).
 
     Returns
     -------
@@ -243,6 +242,7 @@ def read_model(
     params: DetectorParams,
     clock: StageClock,
     rivals: tuple[ModelGuess, ...] = (),
+    blur: EdgeBlur | None = None,
 ) -> Detection | Rejection:
     """Read a candidate by choosing among the stored tags (see the module docstring).
 
@@ -266,6 +266,8 @@ def read_model(
         The best tags of refused readings by model of the same data area from other outlines
         (:attr:`Rejection.model_best`): rivals of the winner unless they are its tag and polarity
         (each outline's shortlist can miss the tag seen, and a look-alike then wins unrivalled).
+    blur : EdgeBlur or None, optional
+        The candidate's sides' blur when measured already (:func:`~ottag_db.decode.blur.edge_blur`).
 
     Returns
     -------
@@ -302,7 +304,7 @@ def read_model(
     if not aligned:
         return first
     top, runner_up = _decide_with_challengers(gray, roi, origin, bank, aligned, unaligned, params, rivals, None)
-    blur = edge_blur(gray, quad)
+    blur = edge_blur(gray, quad) if blur is None else blur
     blurred = False
     judged_blurred = (
         blur.blurred
