@@ -27,7 +27,7 @@ from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, squar
 from ottag_db.decode.templates import MODEL_GRID, RANKING_GRID, TemplateBank, normalized_rows
 from ottag_db.decode.types import DetectorParams, Quad
 
-__all__ = ["coarse_samples", "contour_views", "rank_for_model", "ranking_score"]
+__all__ = ["coarse_samples", "contour_views", "rank_for_model", "ranking_score", "view_samples"]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
@@ -109,6 +109,54 @@ def coarse_samples(
     return kept, normalized_rows(np.stack(samples))
 
 
+def view_samples(gray: NDArray[np.uint8], views: list[View], size: int = MODEL_GRID) -> tuple[list[View], _F32]:
+    """:func:`coarse_samples` of views mapped by their corners (:func:`square_homography`),
+    each data area sampled once: a view whose corners are another's turned by ``r`` places
+    (``np.roll``) in the same polarity samples as that one's sample turned by ``r`` quarter
+    turns (the grid of cell centres is symmetric), so :func:`contour_views` and the outline
+    views, four turns each, cost one warp per outline instead of four.
+
+    Parameters
+    ----------
+    gray : numpy.ndarray
+        ``(H, W)`` uint8 frame.
+    views : list of View
+        The views, in any order.
+    size : int, optional
+        Cells per side.
+
+    Returns
+    -------
+    views : list of View
+        The views that sampled.
+    rows : numpy.ndarray
+        ``(len(views), size²)`` normalized rows, as :func:`coarse_samples` returns them.
+    """
+    sampled: list[tuple[View, _F32]] = []  # (view, its sample, not negated)
+    samples: list[_F32] = []
+    kept: list[View] = []
+    for view in views:
+        s = None
+        for base, base_sample in sampled:
+            if base.polarity != view.polarity:
+                continue
+            turns = [r for r in range(1, 4) if np.array_equal(view.corners, np.roll(base.corners, -r, axis=0))]
+            if turns:
+                s = np.rot90(base_sample, turns[0])
+                break
+        if s is None:
+            to_frame = square_homography(view.corners)
+            s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, size)
+            if s is None:
+                continue
+            sampled.append((view, s))
+        samples.append(s.ravel() if view.polarity == "normal" else -s.ravel())
+        kept.append(view)
+    if not samples:
+        return kept, np.zeros((0, size * size), dtype=np.float32)
+    return kept, normalized_rows(np.stack(samples))
+
+
 def ranking_score(gray: NDArray[np.uint8], quad: Quad, bank: TemplateBank, params: DetectorParams) -> float:
     """How much a candidate looks like a printed tag: the best correlation of any ranking
     template (:attr:`~ottag_db.decode.templates.TemplateBank.ranking`) with any of its contour
@@ -131,7 +179,7 @@ def ranking_score(gray: NDArray[np.uint8], quad: Quad, bank: TemplateBank, param
         In [-1, 1]; -1 when no view could be sampled.
     """
     views = contour_views(quad, params)
-    kept, rows = coarse_samples(gray, [(view, square_homography(view.corners)) for view in views], RANKING_GRID)
+    kept, rows = view_samples(gray, views, RANKING_GRID)
     return float((bank.ranking @ rows.T).max()) if kept else -1.0
 
 

@@ -72,8 +72,8 @@ from ottag_db.decode.blur import (
 )
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import Aligned, View, align, fit_blur, judge, neighbourhood, outline_views
-from ottag_db.decode.model_budget import coarse_samples, contour_views
-from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
+from ottag_db.decode.model_budget import coarse_samples, contour_views, view_samples
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import squeeze
 from ottag_db.decode.reading import points_fit
@@ -224,7 +224,7 @@ def _shows_own_print(gray: NDArray[np.uint8], reading: Detection, bank: Template
     if not rows:
         return False
     turns = [View(np.roll(reading.corners, -r, axis=0), reading.polarity) for r in range(4)]
-    views, samples = coarse_samples(gray, [(view, square_homography(view.corners)) for view in turns])
+    views, samples = view_samples(gray, turns)
     if not views:
         return False
     scores = bank.coarse[rows] @ samples.T  # (rows, turns)
@@ -280,7 +280,7 @@ def read_model(
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
     roi, origin = neighbourhood(gray, [view.corners for view in views])
     views += outline_views(roi, origin, views, math.sqrt(quad.area), quad.polarity)
-    kept, rows = coarse_samples(gray, [(view, square_homography(view.corners)) for view in views])
+    kept, rows = view_samples(gray, views)
     if not kept:
         clock.lap("model")
         return first
