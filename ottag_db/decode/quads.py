@@ -22,6 +22,7 @@ __all__ = [
     "seen_before",
     "shows_print",
     "squeeze",
+    "thinnest_side",
     "within_detection",
 ]
 
@@ -212,24 +213,51 @@ def squeeze(quad: Quad) -> float:
     float
         In [0, 1].
     """
+    small, big = _diagonal_singular_values(quad)
+    return small / big if big > 1e-12 else 0.0
+
+
+def _diagonal_singular_values(quad: Quad) -> tuple[float, float]:
+    """The smaller and larger singular value of the 2×2 map taking the unit square's diagonals
+    to the quad's, in closed form (plain floats: this runs for every candidate, where
+    np.linalg.svd's call overhead was 2 % of a frame)."""
     (ax, ay), (bx, by), (cx, cy), (dx, dy) = quad.corners.tolist()
-    # singular values of the 2×2 matrix of the diagonals in closed form (plain floats: this
-    # runs for every candidate, where np.linalg.svd's call overhead was 2 % of a frame)
     m11, m21, m12, m22 = cx - ax, cy - ay, dx - bx, dy - by
     frob = m11 * m11 + m12 * m12 + m21 * m21 + m22 * m22
     det = abs(m11 * m22 - m12 * m21)
     root = math.sqrt(max(frob * frob - 4.0 * det * det, 0.0))
     big = math.sqrt(0.5 * (frob + root))
-    return det / big / big if big > 1e-12 else 0.0
+    return (det / big if big > 1e-12 else 0.0), big
+
+
+def thinnest_side(quad: Quad) -> float:
+    """The data area's side along its most foreshortened direction, px: the smaller singular
+    value of the affine map taking the unit square's diagonals to the quad's, over √2 (the side
+    itself head-on; about side · cos(tilt) at a tilt).
+
+    Parameters
+    ----------
+    quad : Quad
+        The candidate (image pixels).
+
+    Returns
+    -------
+    float
+    """
+    return _diagonal_singular_values(quad)[0] / math.sqrt(2.0)
 
 
 def shows_print(quad: Quad, params: DetectorParams) -> bool:
     """Whether a reading of this candidate must show its tag as printed (the stored layout and
-    placement, when the lookup knows them): at oblique views (:func:`squeeze` at most
-    ``layout_check_ratio``) and on small data areas (side ``sqrt(area)`` under
-    ``print_check_side_px``), where a vertex lost at a sliver tip or in a blurred corner can
-    leave the points of another order type that fits within the bound. Elsewhere tags drawn by
-    other programs (other triangles, another placement) still read.
+    placement, when the lookup knows them): on small data areas (side ``sqrt(area)`` under
+    ``print_check_side_px``), and at oblique views (:func:`squeeze` at most
+    ``layout_check_ratio``) whose side along the foreshortened direction
+    (:func:`thinnest_side`) is under ``print_check_side_px`` too. There a vertex lost at a sliver
+    tip or in a blurred corner can leave the points of another order type that fits within the
+    bound. What loses a vertex is how few pixels span the triangles across their thinnest
+    direction, not the tilt itself: a large tag seen obliquely keeps as many pixels across as
+    a tag of that side head-on, where the points decide, so a tag drawn by another program
+    (other triangles, another placement) reads there too.
 
     Parameters
     ----------
@@ -244,7 +272,9 @@ def shows_print(quad: Quad, params: DetectorParams) -> bool:
     """
     if params.layout_check_ratio <= 0:
         return False
-    return squeeze(quad) <= params.layout_check_ratio or math.sqrt(quad.area) < params.print_check_side_px
+    if math.sqrt(quad.area) < params.print_check_side_px:
+        return True
+    return squeeze(quad) <= params.layout_check_ratio and thinnest_side(quad) < params.print_check_side_px
 
 
 def in_frame_corners(detection: Detection, shape: tuple[int, ...]) -> Detection:

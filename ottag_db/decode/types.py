@@ -225,19 +225,18 @@ class DetectorParams:
       the points are identified and verified in frame pixels as usual);
       ``rectify_max_ratio``: only quads foreshortened to at most this ratio are retried (see
       :func:`~ottag_db.decode.quads.squeeze`; 0.5: a tilt beyond about 60°);
-      ``layout_check_ratio``: on quads foreshortened to at most this ratio, the detected
-      triangles must be a stored layout of the ID (when the lookup has layouts): at grazing
-      views a vertex lost at a sliver tip can leave a set that fits another order type within
-      the bound (8-point tags read as 6 or 7 points at 82–85°, HEAD's decoder, benchmarks/
-      decode_sweeps.py); tags drawn with other triangles are then read only at milder tilts
-      (0: never checked); at such views the points must also lie where the stored placement
-      prints them (:mod:`~ottag_db.decode.placement_check`, in verification), which catches
-      readings with lost vertices whose triangles do match. Head-on, tags drawn by other
-      programs (other triangles, another placement) still read, unless their points fit only
-      along their side lines (each farther than the bound from where the fit puts it): then
-      layout and placement are checked at any view (an inverted 8-point tag 70 px wide at 53°
-      that lost a sliver tip read as a 7-point type with its points 1.8–2.7 px off the fit,
-      bound 1.5 px);
+      ``layout_check_ratio``: on quads foreshortened to at most this ratio whose side along the
+      foreshortened direction (:func:`~ottag_db.decode.quads.thinnest_side`) is under
+      ``print_check_side_px``, the detected triangles must be a stored layout of the ID (when
+      the lookup has layouts): so few pixels across the slivers can lose a vertex at a tip and
+      leave a set that fits another order type within the bound (8-point tags read as 6 or 7
+      points at 82–85°); the points must then also lie where the stored placement prints them
+      (:mod:`~ottag_db.decode.placement_check`), which catches readings with lost vertices whose
+      triangles do match (0: never checked). Elsewhere tags drawn by other programs (other
+      triangles, another placement) read, unless their points fit only along their side lines
+      (each farther than the bound from where the fit puts it): then layout and placement are
+      checked at any view (an inverted 8-point tag 70 px wide at 53° that lost a sliver tip read
+      as a 7-point type with its points 1.8–2.7 px off the fit, bound 1.5 px);
       ``print_check_side_px``: both checks also apply to data areas whose side
       (``sqrt(area)``) is under this, px: at 21–24 px wide, 8-point tags with a vertex lost in
       a blurred corner read as 6- or 7-point types at full margin (benchmarks/decode_sweeps.py,

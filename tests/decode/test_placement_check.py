@@ -108,9 +108,10 @@ def six_point(bundled_db_path) -> tuple[MemoryLookup, DrawableTag]:
     return lookup, tag
 
 
-def _oblique(tag: DrawableTag, seed: int) -> np.ndarray:
+def _oblique(tag: DrawableTag, seed: int, side: float = 120.0) -> np.ndarray:
+    """The tag at 68°, ``side`` px head-on (120: 45 px across the foreshortened direction)."""
     rng = np.random.default_rng(seed)
-    spec = sc.posed_spec(tag, rng, 200.0, 68.0)
+    spec = sc.posed_spec(tag, rng, side, 68.0)
     return sc.render_scene((480, 640), [spec], rng, blur=0.4, noise=1.5).image
 
 
@@ -138,6 +139,8 @@ def test_rendered_oblique_tag_reads_only_as_printed(six_point) -> None:
         found, rejected = det.detect_with_rejections(_oblique(moved, seed))
         assert found == []
         assert any(r.reason == "verification" and "printed placement" in r.detail for r in rejected)
+        # a larger view keeps as many pixels across as a head-on tag of 75 px: the points decide
+        assert [d.lambda_text for d in det.detect(_oblique(moved, seed, side=200.0))] == [tag.lambda_text]
     # a lookup that knows no placement (a portable dictionary file) reads it
     entries = [dataclasses.replace(e, placements=()) for e in lookup]
     loose = Detector(MemoryLookup(entries))
