@@ -129,15 +129,21 @@ def identify(
             detail = f"{view}: the detected triangles are not this tag's layout"
             return Rejection("verification", detail, lam, not_printed=frozenset({lam}))
         member, minimal = printed
-    elif member.layouts and len(minimal) > 1:
+    turned: tuple[LookupEntry, list[tuple[int, ...]]] | None = None
+    if not printed_only and member.layouts and len(minimal) > 1:
         # A symmetric order type: its labelings read the same ID with the tag turned. Head-on
         # the print need not be there (tags drawn by other programs), but where its triangles
-        # are they tell the labelings apart (the placement, in verification, too).
+        # are they tell the labelings apart (the placement, in verification, too). Another
+        # program's triangles can match the stored layout under a wrong turn: the labelings
+        # they pick must then fit, else every labeling is judged by its fit.
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is not None:
-            member, minimal = printed
+            turned, (member, minimal) = (member, minimal), printed
     clock.lap("identify")
     checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=required)
+    if turned is not None and not isinstance(checked.result, Detection):
+        member, minimal = turned
+        checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=required)
     result = checked.result
     if (
         isinstance(result, Detection)
