@@ -14,7 +14,7 @@ from ottag_db.core.lookup import LookupEntry, TagLookup
 from ottag_db.core.single_set import OrientationTable, read_set
 from ottag_db.core.types import Polarity
 from ottag_db.decode.profile import StageClock
-from ottag_db.decode.quads import shows_print
+from ottag_db.decode.quads import shows_print, thinnest_side
 from ottag_db.decode.soft import (
     FlipReading,
     Scored,
@@ -28,9 +28,19 @@ from ottag_db.decode.soft import (
 from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
 from ottag_db.decode.verify import Assessment, SideLines, assess, verify
 
-__all__ = ["Catalogue", "for_polarity", "identify"]
+__all__ = ["PRINT_MIN_SEEN_CORNERS", "Catalogue", "for_polarity", "identify"]
 
 _F64 = NDArray[np.float64]
+
+#: A reading that showed its print (stored layout and placement) on a data area with pixels
+#: across it (at least ``print_check_side_px`` across its thinnest direction, where corners
+#: are measured to a fraction of the bound) must also have at least this many of its measured
+#: corners where the print puts them. A finger over a corner or a frame cutting one leaves
+#: three; a tag that lost a whole triangle, read as a type of fewer points whose layout is the
+#: triangles left, passed the loose placement check with all four corners far from its print
+#: (a drawing by another program at 70°, 150 px across). Below that width corners at grazing
+#: views miss the print by more than the bound even on correct readings (1 of 415 had none).
+PRINT_MIN_SEEN_CORNERS = 2
 
 
 @dataclass(frozen=True)
@@ -168,8 +178,23 @@ def identify(
         else:
             member, minimal = printed
             result = verify(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=True)
+            printed_only = True
+    if printed_only and isinstance(result, Detection):
+        result = _corners_as_printed(result, quad, p)
     clock.lap("verify")
     return result
+
+
+def _corners_as_printed(reading: Detection, quad: Quad, params: DetectorParams) -> Detection | Rejection:
+    """A reading that showed its tag as printed, refused when its data area keeps
+    ``print_check_side_px`` across its thinnest direction and fewer than
+    :data:`PRINT_MIN_SEEN_CORNERS` of its measured corners lie where the print puts them
+    (:attr:`~ottag_db.decode.types.Detection.corners_seen`)."""
+    seen = reading.corners_seen
+    if seen is None or sum(seen) >= PRINT_MIN_SEEN_CORNERS or thinnest_side(quad) < params.print_check_side_px:
+        return reading
+    detail = f"{sum(seen)} of the data area's corners where the print puts them"
+    return Rejection("verification", detail, reading.lambda_text, not_printed=frozenset({reading.lambda_text}))
 
 
 def _minimal(orderings: list[tuple[tuple[int, ...], NDArray[np.int8]]]) -> list[tuple[int, ...]]:
