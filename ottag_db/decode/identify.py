@@ -186,12 +186,14 @@ def identify(
 
 
 def _corners_as_printed(reading: Detection, quad: Quad, params: DetectorParams) -> Detection | Rejection:
-    """A reading that showed its tag as printed, refused when its data area keeps
-    ``print_check_side_px`` across its thinnest direction and fewer than
+    """A reading that showed its tag as printed, refused when its data area was outlined by its
+    contour, keeps ``print_check_side_px`` across its thinnest direction and fewer than
     :data:`PRINT_MIN_SEEN_CORNERS` of its measured corners lie where the print puts them
     (:attr:`~ottag_db.decode.types.Detection.corners_seen`)."""
     seen = reading.corners_seen
-    if seen is None or sum(seen) >= PRINT_MIN_SEEN_CORNERS or thinnest_side(quad) < params.print_check_side_px:
+    if seen is None or sum(seen) >= PRINT_MIN_SEEN_CORNERS or quad.inferred:
+        return reading  # (an outline inferred from the lines of its visible sides measures no corner)
+    if thinnest_side(quad) < params.print_check_side_px:
         return reading
     detail = f"{sum(seen)} of the data area's corners where the print puts them"
     return Rejection("verification", detail, reading.lambda_text, not_printed=frozenset({reading.lambda_text}))
