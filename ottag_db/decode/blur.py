@@ -14,7 +14,8 @@ does not help, as the gaps shrink with the blur.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -30,6 +31,7 @@ __all__ = [
     "EdgeBlur",
     "edge_blur",
     "measured_blurs",
+    "refined_blur",
 ]
 
 _F64 = NDArray[np.float64]
@@ -58,7 +60,8 @@ BLURRED_MAX_MISFIT = 0.12
 #: cells, where a blur of up to 4 px is under a cell of a 98 px data area) of a blurred
 #: candidate read by model: a blurred tag's data area correlates 0.75–0.96 with its printed
 #: tag there, the blurred quads of photographs (fur, bricks, text) 0.45–0.67; each reading by
-#: model costs 20–40 ms.
+#: model costs 20–40 ms. Taken also from the outline moved onto the sides' blurred steps
+#: (:meth:`EdgeBlur.centred`), the better of the two.
 BLURRED_MIN_RANKING = 0.7
 #: The smallest correlation with the nominal drawing (the first of :data:`NOMINAL_BLURS_PX`)
 #: for which a blurred candidate's aligned tags are judged again with its measured blur: a
@@ -86,6 +89,19 @@ _MOTION_LENGTHS = (0.7, 0.85, 1.0, 1.15, 1.3)
 #: The motion directions drawn about each one the sides give (degrees): the sides' widths
 #: place it within about 10°.
 _MOTION_TURNS = (-10.0, 0.0, 10.0)
+#: The pattern search of :func:`refined_blur`: its first steps (the factor on σ and on the
+#: motion's length, the turn of its direction in degrees), each halved when no move along it
+#: fits better, down to the last ones; at most :data:`_REFINE_EVALUATIONS` blurs drawn per start.
+_REFINE_STEPS = (1.2, 1.2, 8.0)
+_REFINE_LAST = (1.03, 1.03, 1.0)
+_REFINE_EVALUATIONS = 16
+#: The turns (degrees) of a measured motion's direction tried before the pattern search: the
+#: sides placed a 15–17 px motion up to 30° off, beyond the search's reach from one start.
+_SWEEP = tuple(float(a) for a in range(0, 180, 30))
+#: The largest move of a side onto its step's midpoint (:meth:`EdgeBlur.centred`), as a
+#: fraction of the data area's side: a threshold's outline of a data area blurred by up to
+#: 4 px lies within a few percent of it; a larger offset is a triangle's edge, not the side's.
+_MAX_OFFSET = 0.08
 _ACROSS_MAX = 14.0
 _ACROSS_STEP = 0.5
 #: The Gaussian (σ, px) that smooths a profile before its steepest slope is taken, and is
@@ -107,10 +123,14 @@ class EdgeBlur:
         few samples showed a step.
     normals : numpy.ndarray
         ``(4, 2)`` the sides' unit normals.
+    offsets : tuple of float
+        Per side, how far (frame px, along its outward normal) the step's midpoint lies from
+        the side; NaN where the side's blur is.
     """
 
     sides: tuple[float, ...]
     normals: _F64
+    offsets: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
 
     @property
     def largest(self) -> float:
@@ -129,6 +149,35 @@ class EdgeBlur:
         floor = NOMINAL_BLURS_PX[1]
         pairs = [(max(self.sides[i], floor), max(self.sides[i + 2], floor)) for i in (0, 1)]
         return all(max(a, b) <= BLURRED_PAIR_RATIO * min(a, b) for a, b in pairs)
+
+    def centred(self, quad: Quad) -> Quad:
+        """``quad`` with each side moved onto its step's midpoint (:attr:`offsets`), the
+        corners where the moved sides meet; ``quad`` itself when a side was not measured.
+
+        A blurred step's midpoint is where the print's edge lies (a symmetric blur keeps it
+        there), while a threshold's outline of a blurred data area lies where the threshold
+        crosses the ramp: under a defocus of 2.5–3.5 px the local threshold's outlines missed
+        the data area's corners by 1.7–2.3 px on average, the centred ones by 0.7–1.1 px, and an
+        inverted tag's white data area, outlined 3 % of its side too wide, matched its printed
+        tag coarsely by 0.60–0.65 (under :data:`BLURRED_MIN_RANKING`), centred by 0.72–0.85.
+        """
+        off = np.array(self.offsets)
+        side = math.sqrt(max(quad.area, 1.0))
+        if not np.isfinite(off).all() or np.abs(off).max() > _MAX_OFFSET * side:
+            return quad
+        a = quad.corners + off[:, None] * self.normals  # a point of each moved side
+        d = np.roll(quad.corners, -1, axis=0) - quad.corners
+        corners = np.empty_like(a)
+        for i in range(4):  # corner i: sides i - 1 and i
+            j = (i - 1) % 4
+            m = np.array([d[j], -d[i]]).T
+            if abs(np.linalg.det(m)) < 1e-9:
+                return quad
+            t = np.linalg.solve(m, a[i] - a[j])
+            corners[i] = a[j] + t[0] * d[j]
+        p, q = corners[2] - corners[0], corners[3] - corners[1]
+        area = 0.5 * abs(float(p[0] * q[1] - p[1] * q[0]))
+        return Quad(quad.polarity, corners, area, quad.inferred)
 
 
 @dataclass(frozen=True)
@@ -245,6 +294,81 @@ def measured_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
     return tuple(out)
 
 
+def refined_blur(misfit: Callable[[Blur], float], blurs: tuple[Blur, ...]) -> Blur | None:
+    """The blur that fits a candidate's view best: the best defocus and the best motion of
+    ``blurs``, each refined by a pattern search on ``misfit``, and the better of the two.
+
+    The sides measure a motion only roughly: a side's steepest slope is lowered by triangles
+    within the blur's reach of it, and its plateau is cut short by a long smear, so a motion of
+    15–17 px measured 10–14 px and up to 30° off, and the nearest measured motion (or a
+    defocus) then misfits the tag seen by 0.13–0.26 of its contrast, where the true one leaves
+    0.04–0.07 (:data:`BLURRED_MAX_MISFIT`). The motion starts from the best measured direction
+    at the measured length, swept over a half turn (:data:`_SWEEP`; a motion along the data
+    area's diagonal widens all four sides alike, as a defocus does: such sides get a motion
+    too); the search then moves σ, the length and the direction by :data:`_REFINE_STEPS`,
+    halving each step that finds nothing better, within :data:`_REFINE_EVALUATIONS` drawings.
+
+    Parameters
+    ----------
+    misfit : callable
+        A blur → how badly the tag drawn with it fits the view (smaller: better).
+    blurs : tuple of Blur
+        The measured blurs (:func:`measured_blurs`).
+
+    Returns
+    -------
+    Blur or None
+        None when ``blurs`` is empty.
+    """
+    if not blurs:
+        return None
+    cache: dict[Blur, float] = {}
+
+    def cost(blur: Blur) -> float:
+        if blur not in cache:
+            cache[blur] = misfit(blur)
+        return cache[blur]
+
+    defocus = [b for b in blurs if b.length <= 1.0]
+    motions = [b for b in blurs if b.length > 1.0]
+    if not motions and defocus:
+        # sides blurred alike: a defocus, or a motion along the data area's diagonal, which
+        # widens every side by as much (of a length the median σ gives, in any direction)
+        sigma = float(np.median([b.sigma for b in defocus]))
+        length = math.sqrt(2 * math.pi * max(sigma * sigma - NOMINAL_BLURS_PX[1] ** 2, 0.0))
+        motions = [Blur(NOMINAL_BLURS_PX[1], length, 0.0)] if length > 2.0 else []
+    starts = [min(defocus, key=cost)] if defocus else []
+    if motions:
+        # the measured directions at the measured length, then the best of them swept over a
+        # half turn (the pattern search then refines length and direction together)
+        middle = float(np.median([b.length for b in motions]))
+        first = min((b for b in motions if b.length == middle), key=cost, default=motions[0])
+        starts.append(min((replace(first, angle_deg=(first.angle_deg + a) % 180.0) for a in _SWEEP), key=cost))
+    out = []
+    for start in starts:
+        best, steps, spent = start, list(_REFINE_STEPS), 0
+        motion = start.length > 1.0
+        while spent < _REFINE_EVALUATIONS and any(steps[i] > _REFINE_LAST[i] for i in (0, 1, 2) if motion or i == 0):
+            for i in (0, 1, 2) if motion else (0,):
+                if steps[i] <= _REFINE_LAST[i]:
+                    continue
+                for sign in (1.0, -1.0):
+                    if i == 0:
+                        trial = replace(best, sigma=best.sigma * steps[0] ** sign)
+                    elif i == 1:
+                        trial = replace(best, length=best.length * steps[1] ** sign)
+                    else:
+                        trial = replace(best, angle_deg=(best.angle_deg + sign * steps[2]) % 180.0)
+                    spent += trial not in cache
+                    if cost(trial) < cost(best):
+                        best = trial
+                        break
+                else:
+                    steps[i] = 1.0 + (steps[i] - 1.0) / 2 if i < 2 else steps[i] / 2
+        out.append(best)
+    return min(out, key=cost)
+
+
 def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     """The blur of a candidate's sides: per side, σ (frame px) of the Gaussian that blurs its step so.
 
@@ -309,5 +433,9 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     low = np.take_along_axis(ordered, np.maximum((count - 1) // 2, 0)[:, None], axis=1)[:, 0]
     high = np.take_along_axis(ordered, np.minimum(count // 2, len(_ALONG) - 1)[:, None], axis=1)[:, 0]
     median = np.where(count % 2 == 1, low, (low + high) / 2)
-    per_side = np.where((count >= len(_ALONG) // 2) & (length >= 4), median, np.nan)
-    return EdgeBlur(tuple(float(v) for v in per_side), normal)
+    valid = (count >= len(_ALONG) // 2) & (length >= 4)
+    per_side = np.where(valid, median, np.nan)
+    # the step's midpoint: the steepest point's median position across the side
+    where = np.where(np.isfinite(sigma.ravel()), across[steepest] + _ACROSS_STEP / 2, np.nan).reshape(4, len(_ALONG))
+    offsets = np.where(valid, np.nanmedian(np.where(count[:, None] > 0, where, 0.0), axis=1), np.nan)
+    return EdgeBlur(tuple(float(v) for v in per_side), normal, tuple(float(v) for v in offsets))

@@ -223,7 +223,7 @@ class Detector:
             seen.extend(quads)
             clock.lap("candidates")
             # read by model after the pass; a blurred one with its blur and coarse match
-            by_model: list[tuple[Quad, Rejection, tuple[EdgeBlur, float] | None]] = []
+            by_model: list[tuple[Quad, Rejection, tuple[EdgeBlur, float, Quad] | None]] = []
             for quad, again in sorted(zip(quads, outlined_again, strict=True), key=lambda c: c[0].area):
                 skip = around_detection(quad, detections)
                 clock.lap("candidates")
@@ -278,7 +278,8 @@ class Detector:
                     rejected.append(first.at(quad))
                     continue
                 rivals = tuple(g for q, g in guesses if same_quad(q, quad))
-                result = read_model(gray, quad, first, bank, p, clock, rivals, measured[0] if measured else None)
+                blur, read_as = (measured[0], measured[2]) if measured else (None, quad)
+                result = read_model(gray, read_as, first, bank, p, clock, rivals, blur)
                 if isinstance(result, Rejection):
                     if result.model_best is not None:
                         guesses.append((quad, result.model_best))
@@ -287,18 +288,22 @@ class Detector:
                     detections.append(result)
         return [in_frame_corners(d, gray.shape) for d in detections], rejected
 
-    def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> tuple[EdgeBlur, float] | None:
+    def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> tuple[EdgeBlur, float, Quad] | None:
         """A candidate the points did not read that looks like a blurred tag — its sides blurred
         alike (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`), its coarse match like a printed
-        tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`) — as its blur and coarse match
-        (for reading by model); else None."""
+        tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`) — as its blur, coarse match and
+        the outline it is read by model from; else None. The coarse match is taken from the
+        threshold's outline and from the outline on its sides' blurred steps
+        (:meth:`~ottag_db.decode.blur.EdgeBlur.centred`), the better of the two."""
         if self._bank is None or math.sqrt(quad.area) < BLURRED_MIN_SIDE * BLURRED_MIN_SIGMA:
             return None  # too small to hold a tag blurred that much (blur.BLURRED_MIN_SIDE)
         blur = edge_blur(gray, quad)
         if not blur.blurred:
             return None
-        score = ranking_score(gray, quad, self._bank, self._params)
-        return (blur, score) if score >= BLURRED_MIN_RANKING else None
+        centred = blur.centred(quad)
+        outlines = (quad,) if centred is quad else (quad, centred)
+        score, best = max((ranking_score(gray, q, self._bank, self._params), i) for i, q in enumerate(outlines))
+        return (blur, score, outlines[best]) if score >= BLURRED_MIN_RANKING else None
 
 
 def read_quad(

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.blur import NOMINAL_BLURS_PX, Blur
+from ottag_db.decode.blur import NOMINAL_BLURS_PX, Blur, refined_blur
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_area_depths, square_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
 
@@ -87,6 +87,15 @@ _FINE_OUTLINE.flags.writeable = False
 #: Side of the window (refinement-template cells, 1/10 of the data area) over which the
 #: aligned tag's local misfit is averaged (see :class:`Aligned`).
 _MISFIT_WINDOW = 4
+#: The Gaussian (σ, in refinement-template cells) that averages the frame and the drawn tag
+#: about each cell before a blurred candidate's misfit and correlation with its measured blur
+#: are taken (:func:`judge`): a cell sampled bilinearly takes the noise of about one pixel, and
+#: in a dim frame (contrast a quarter, noise σ 6) a tag defocused by 2.5 px, drawn with its
+#: true blur, misfit by 0.09–0.14 of its contrast that way — over
+#: :data:`~ottag_db.decode.blur.BLURRED_MAX_MISFIT`, where the same frame without the noise
+#: leaves 0.02–0.04 — and by 0.05–0.08 averaged so; a triangle that differs is several cells
+#: wide and keeps its patch.
+_CELL_AVERAGE = 0.5
 #: The quiet zone drawn around the tag when it is judged (data-area units, :data:`INVERTED_QUIET`).
 _DRAWN_QUIET = INVERTED_QUIET
 _ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
@@ -120,7 +129,8 @@ class Aligned:
     differs. The quiet misfit is the mean absolute residual over the quiet band around the
     data area, with the scale and offset fitted inside it: the band must be as bright or dark
     as the reading's polarity prints it. ``blurred_correlation``: the correlation with the blur
-    measured on a blurred candidate (:func:`fit_blur`) when it is judged with it, else
+    measured on a blurred candidate (:func:`fit_blur`; each cell averaged over the pixels about
+    it, :data:`_CELL_AVERAGE`, as for its misfit) when it is judged with it, else
     ``correlation``; it must reach the minimum correlation, while
     the gap to the other tags is judged on ``correlation``."""
 
@@ -350,9 +360,10 @@ def _drawn(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to
 
 
 def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blurs: tuple[Blur, ...]) -> Blur | None:
-    """The blur, of ``blurs``, under which the aligned tag fits its whole view best (the
-    quiet band, the rim and the triangles: a motion's direction is known from the sides only
-    up to its mirror image, and only the triangles' smear tells the two apart).
+    """The blur under which the aligned tag fits its whole view best (the quiet band, the rim
+    and the triangles: a motion's direction is known from the sides only up to its mirror
+    image, and only the triangles' smear tells the two apart): the best of ``blurs``, refined
+    (:func:`~ottag_db.decode.blur.refined_blur`).
 
     Parameters
     ----------
@@ -382,7 +393,7 @@ def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blur
         view = cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
         return _contrast_residual(np.asarray(view, np.float32).ravel(), seen.ravel())
 
-    return min(blurs, key=residual)
+    return refined_blur(residual, blurs)
 
 
 def judge(
@@ -408,12 +419,10 @@ def judge(
     # correct tag's sliver tips then misfit like a different tag's triangle).
     drawn = _drawn(roi, origin, bank, row, view, to_frame)
     kinds = [Blur(sigma) for sigma in NOMINAL_BLURS_PX] + ([] if frame_blur is None else [frame_blur])
+    applied = [kind.apply(drawn) for kind in kinds]
     blurred = [
-        np.asarray(
-            cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE),
-            dtype=np.float32,
-        )
-        for kind in kinds
+        np.asarray(cv2.warpPerspective(im, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE), dtype=np.float32)
+        for im in applied
     ]
     # judged inside the data area only: the quiet band that anchors the alignment looks the
     # same for every tag and would lift every candidate's score alike
@@ -431,14 +440,28 @@ def judge(
     # correlates 0.89 with its nominal drawing (its look-alikes 0.4-0.8), 1.00 with its blurred
     # one (and the look-alikes 0.97-0.98: blur compresses the gaps, which the nominal one keeps)
     fitted = pair[0] @ pair[1]
-    if frame_blur is not None:
-        both = normalized_rows(np.stack([expected[inside, inside].ravel(), s_in.ravel()]))
-        fitted = both[0] @ both[1]
     e_in = expected[inside, inside]
     coef = _contrast_fit(e_in.ravel(), s_in.ravel())
     resid = s_in - (coef[0] * e_in + coef[1])
     if frame_blur is None:
         resid = np.abs(resid)
+    else:
+        # each cell the mean of the frame's pixels about it (and of the tag's): the correlation
+        # with the measured blur and the misfit (:data:`_CELL_AVERAGE`)
+        area = abs(float(cv2.contourArea(apply_homography(to_frame, UNIT_SQUARE).astype(np.float32))))
+        sigma = _CELL_AVERAGE * _FINE_STEP * math.sqrt(area)
+        s_av, e_av = (
+            np.asarray(
+                cv2.warpPerspective(
+                    cv2.GaussianBlur(im, (0, 0), sigma), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE
+                ),
+                dtype=np.float32,
+            )[inside, inside]
+            for im in (roi, applied[-1])
+        )
+        both = normalized_rows(np.stack([e_av.ravel(), s_av.ravel()]))
+        fitted = both[0] @ both[1]
+        resid = s_av - (coef[0] * e_av + coef[1])
     # with a measured blur, the signed residual is averaged: a differing triangle leaves a patch
     # of one sign, while the sensor noise of a dim, blurred frame averages out (its absolute
     # value alone filled a quarter of the strict limit, blur.BLURRED_MAX_MISFIT)

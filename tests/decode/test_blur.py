@@ -14,7 +14,15 @@ from hypothesis import strategies as st
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.core.types import Polarity
 from ottag_db.decode import Detector
-from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur, edge_blur, measured_blurs, motion_kernel
+from ottag_db.decode.blur import (
+    NOMINAL_BLURS_PX,
+    Blur,
+    EdgeBlur,
+    edge_blur,
+    measured_blurs,
+    motion_kernel,
+    refined_blur,
+)
 from ottag_db.decode.types import Quad
 from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
@@ -100,6 +108,39 @@ def test_a_sharp_candidate_is_judged_with_the_nominal_blurs_only() -> None:
     sharp = EdgeBlur((0.8, 0.7, math.nan, 0.9), np.eye(2)[[0, 1, 0, 1]])
     assert sharp.largest <= NOMINAL_BLURS_PX[-1] and not sharp.blurred
     assert measured_blurs(sharp) == () == measured_blurs(None)
+
+
+@pytest.mark.parametrize("polarity", ["normal", "inverted"])
+@pytest.mark.parametrize("shift", [-2.0, 2.0])
+def test_a_blurred_outline_is_centred_on_its_steps(printed, polarity, shift) -> None:
+    """An outline a threshold put 2 px inside or outside a data area defocused by 3 px is moved
+    onto its sides' blurred steps: its corners within 1 px of the data area's."""
+    _, tags = printed
+    _, image, corners = _frame(tags, 7, polarity, defocus=3.0)
+    centre = corners.mean(axis=0)
+    side = math.sqrt(float(cv2.contourArea(corners.astype(np.float32))))
+    moved = centre + (corners - centre) * (1 + 2 * shift / side)  # each side about `shift` px out
+    quad = Quad(polarity, moved, float(cv2.contourArea(moved.astype(np.float32))))
+    centred = edge_blur(image, quad).centred(quad)
+    assert np.linalg.norm(moved - corners, axis=1).max() > 1.5
+    assert np.linalg.norm(centred.corners - corners, axis=1).max() < 1.0
+
+
+def test_the_refined_blur_reaches_a_motion_the_sides_placed_off() -> None:
+    """The pattern search from measured motions 30 % short and 25° off reaches the best-fitting
+    one (a misfit least at 15 px along 60°) within 0.5 px and 2°; a defocus wins when it fits best."""
+
+    def misfit(b: Blur) -> float:
+        turn = min(abs(b.angle_deg - 60.0) % 180.0, 180.0 - abs(b.angle_deg - 60.0) % 180.0)
+        return (b.length - 15.0) ** 2 / 4 + (turn / 5) ** 2 + (b.sigma - 0.7) ** 2 + 0.5
+
+    measured = (Blur(3.0), Blur(4.0), *(Blur(0.7, 10.5 * f, 35.0) for f in (0.85, 1.0, 1.15)))
+    best = refined_blur(misfit, measured)
+    assert best is not None and abs(best.length - 15.0) < 0.5
+    assert min(abs(best.angle_deg - 60.0), 180 - abs(best.angle_deg - 60.0)) < 2.0
+    defocus = refined_blur(lambda b: abs(b.sigma - 3.3) + b.length, measured)
+    assert defocus is not None and defocus.length == 0.0 and abs(defocus.sigma - 3.3) < 0.15
+    assert refined_blur(misfit, ()) is None
 
 
 @pytest.mark.parametrize(
