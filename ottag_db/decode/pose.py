@@ -9,9 +9,11 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ottag_db.decode.placement_check import apply_homography
 from ottag_db.decode.pose_ambiguity import (
     AMBIGUITY_LIMIT,
     AMBIGUITY_MIN_ANGLE_DEG,
+    Minimum,
     ippe,
     likelihood_ratio,
     mirrored_minima,
@@ -24,10 +26,13 @@ __all__ = [
     "AMBIGUITY_LIMIT",
     "AMBIGUITY_MIN_ANGLE_DEG",
     "CORNER_WEIGHT",
+    "MEASURED_CORNER_PX",
+    "NEXT_TO_UNSEEN_WEIGHT",
     "ROBUST_SCALE_PX",
     "Pose",
     "PoseSolution",
     "estimate_pose",
+    "measured_corners",
     "placement_from_detection",
     "tag_object_points",
 ]
@@ -171,6 +176,95 @@ CORNER_WEIGHT = 10.0
 ROBUST_SCALE_PX = 0.5
 
 
+#: Weight of a seen corner next to one not seen (``Detection.corners_seen``), against one vertex.
+#: A corner the print puts elsewhere, in a view where the square itself does not place it either
+#: (see :data:`MEASURED_CORNER_PX`), had a side measured off — a triangle's edge taken for the
+#: border, or an occluder's — and a neighbour on that side (either side of a lone corner not
+#: seen; the side between two) is its crossing with another: within the verification bound, it
+#: can still lie a pixel off, which at :data:`CORNER_WEIGHT` outweighs the vertices and chose
+#: the wrong mirrored pose with confidence (a neighbour 0.9 px off on a 31 px data area, its
+#: corner's side run along a triangle's edge); at a vertex's weight it counts as much as one.
+NEXT_TO_UNSEEN_WEIGHT = 1.0
+#: A corner not seen where the print puts it counts as seen after all when its measured position
+#: lies within this distance (px) of where the square, posed by the other corners and the points,
+#: puts it (under either mirrored pose). The print's position extrapolates the points'
+#: homography (8 unknowns from k points) to the corner: a vertex a pixel or two off at a sharp
+#: tip moves it by 1–4 px on data areas 28–40 px wide, so well-measured corners fail that test;
+#: a posed square (6 unknowns, the corners' shape known) places the fourth corner from three to
+#: within a few tenths of a pixel. On benchmarks/pose_flips.py renders the corners it let back lay
+#: within 0.11 px of one of the two poses' corner (their print 1.2–3.6 px off); corners whose
+#: side had followed a triangle's edge (before :func:`~ottag_db.decode.refine.refine_lines`
+#: searched such sides again) lay 2.1–6.3 px from both. 0.5 px is :data:`ROBUST_SCALE_PX`, the
+#: distance at which a corner would count half anyway.
+MEASURED_CORNER_PX = 0.5
+
+
+def measured_corners(detection: Detection) -> _F64 | None:
+    """The data-area corners as measured (before the printed position replaced those not seen).
+
+    Parameters
+    ----------
+    detection : Detection
+        A decoded tag.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``(4, 2)`` image pixels in the order of ``detection.corners``: ``corners_measured``
+        mapped by ``homography`` when the print replaced a corner, else ``corners`` (a corner
+        outside the frame, not seen, is where the lines of its sides cross); None when the
+        corners measured cannot be mapped.
+    """
+    if detection.corners_measured is None:
+        return np.asarray(detection.corners, dtype=np.float64)
+    if detection.homography is None:
+        return None
+    out = apply_homography(detection.homography, np.asarray(detection.corners_measured, dtype=np.float64))
+    return out if np.isfinite(out).all() else None
+
+
+def _placed_by_square(
+    obj4: _F64, measured: _F64, minima: tuple[Minimum, Minimum], k: _F64, dist: _F64 | None
+) -> NDArray[np.bool_]:
+    """Which measured corners lie within :data:`MEASURED_CORNER_PX` of the corners of either pose."""
+    near = np.zeros(4, dtype=bool)
+    for m in minima:
+        proj, _ = cv2.projectPoints(obj4, m[0], m[1], k, dist)
+        near |= np.linalg.norm(proj.reshape(-1, 2) - measured, axis=1) <= MEASURED_CORNER_PX
+    return near
+
+
+def _weigh_unseen(
+    detection: Detection, obj: _F64, img: _F64, k: _F64, dist: _F64 | None, weights: _F64, robust_px: float | None
+) -> _F64:
+    """Weights (set in place) of corners not seen and of their neighbours, and the image points
+    with the measured corners the posed square confirms (:data:`MEASURED_CORNER_PX`) back in."""
+    unseen = ~np.asarray(detection.corners_seen, dtype=bool)
+    corner_weight = float(weights[0])
+    weights[:4][unseen] = UNSEEN_CORNER_WEIGHT
+    measured = measured_corners(detection)
+    if unseen.any() and measured is not None:
+        minima = mirrored_minima(obj, img, k, dist, weights, robust_px)
+        back = _placed_by_square(obj[:4], measured, minima, k, dist) & unseen
+        if back.any():
+            img = img.copy()
+            img[:4][back] = measured[back]
+            weights[:4][back] = corner_weight
+            unseen &= ~back
+    weights[:4][_next_to_unseen(unseen)] = min(NEXT_TO_UNSEEN_WEIGHT, corner_weight)
+    return img
+
+
+def _next_to_unseen(unseen: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """The seen corners on a side suspected of being measured off: a side between two corners
+    not seen when there is one (it explains both), else every side through a corner not seen
+    (side ``i`` runs from corner ``i`` to corner ``i + 1``)."""
+    both = unseen & np.roll(unseen, -1)
+    suspect = both if both.any() else unseen | np.roll(unseen, -1)
+    out: NDArray[np.bool_] = (suspect | np.roll(suspect, 1)) & ~unseen
+    return out
+
+
 def estimate_pose(
     detection: Detection,
     camera_matrix: ArrayLike,
@@ -187,8 +281,10 @@ def estimate_pose(
     almost equally (the planar ambiguity: on a data area 28–70 px wide their images differ by
     a tenth of a pixel or so). Both IPPE solutions of all correspondences (4 corners, then the
     matched points; corners not seen, ``Detection.corners_seen``, weigh nothing beside the
-    points) are refined by a weighted Levenberg–Marquardt, and their mirrors when both
-    end in one minimum (:mod:`~ottag_db.decode.pose_ambiguity`). The noise model: each point's
+    points unless the square posed without them puts them where they were measured,
+    :data:`MEASURED_CORNER_PX`; their neighbours weigh :data:`NEXT_TO_UNSEEN_WEIGHT`) are
+    refined by a weighted Levenberg–Marquardt, and their mirrors when both end in one minimum
+    (:mod:`~ottag_db.decode.pose_ambiguity`). The noise model: each point's
     error is Gaussian with a spread per kind, a corner's ``1/sqrt(corner_weight)`` of a
     vertex's (corners come from four straight sides fitted over their whole length, vertices
     from short sides meeting at sharp tips), with Cauchy tails at ``robust_scale_px`` (a point
@@ -246,7 +342,7 @@ def estimate_pose(
     weights = np.ones(len(obj))
     weights[:4] = corner_weight
     if detection.corners_seen is not None and len(obj) > 4:
-        weights[:4][~np.asarray(detection.corners_seen, dtype=bool)] = UNSEEN_CORNER_WEIGHT
+        img = _weigh_unseen(detection, obj, img, k, dist, weights, robust_scale_px)
     best, alt = mirrored_minima(obj, img, k, dist, weights, robust_scale_px)
     rv, tv = best[0], best[1]
     ambiguity = likelihood_ratio(obj, img, k, dist, weights, best, alt)

@@ -254,10 +254,13 @@ def refine_lines(
     sliver narrower than the blur the grey level never reaches the bright level and the
     crossings move inward, which would make needle tips overshoot along their axis.
 
-    A data-area side is fitted twice: its samples within :data:`_QUAD_NEAR_PX` of a triangle
-    side whose crossing lies over :data:`_QUAD_OUTLIER_PX` from the first fit (the crossing
-    found was the triangle's edge, not the border) are left out of the second. A side left with
-    fewer than 3 samples keeps its first fit.
+    A data-area side takes only crossings the border's way (bright outside, dark inside; a
+    triangle's edge next to the border is crossed the other way) and is fitted twice: its
+    samples within :data:`_QUAD_NEAR_PX` of a triangle side whose crossing lies over
+    :data:`_QUAD_OUTLIER_PX` from the first fit (the crossing found was the triangle's edge, not
+    the border) are left out of the second. A side left with fewer than 3 samples keeps its
+    first fit. A side that found no crossing at some samples, or one off its fit, is searched
+    again around the line most of its crossings agree on (:data:`_CONSENSUS_PX`).
 
     Returns
     -------
@@ -318,6 +321,8 @@ def refine_lines(
     vals -= level
     above = vals > 0
     change = above[:, 1:] != above[:, :-1]  # crossing between o and o+1
+    if quad is not None:  # the border's crossings only: bright outside, dark inside
+        change[st * m_fr :] &= _falls(above[st * m_fr :], np.repeat(_inward(normal[st:], offset[st:], quad), m_fr))
     j = np.where(change, _REFINE_MID, np.inf).argmin(axis=1)
     rows = np.arange(len(vals))
     v0 = vals[rows, j]
@@ -343,8 +348,139 @@ def refine_lines(
             redo = drop.any(axis=1) & (cq >= 3)
             n2[st:] = np.where(redo[:, None], nq, qn)
             c2[st:] = np.where(redo, cq_off, qc)
+        redone = _recentre_quad_sides(
+            img, level, (px[st:], py[st:], valid[st:]), (n2[st:], c2[st:]), (normal[st:], offset[st:]),
+            (a[st:], b[st:]), quad,
+        )  # fmt: skip
+        good[st:] |= redone & (finite if isinstance(finite, bool) else finite[st:])
     # keep the orientation of the old normal
     flip = (n2 * normal).sum(axis=1) < 0
     n2[flip] *= -1
     c2[flip] *= -1
     return np.where(good[:, None], n2, normal), np.where(good, c2, offset)
+
+
+#: A data-area side is searched again around the line most of its crossings agree on (within
+#: this distance, px: border crossings scatter by about a tenth of a pixel) when the first
+#: search found no crossing at some of its samples or one over :data:`_QUAD_OUTLIER_PX` from its
+#: fit: its rough line lay so far off the border (1.5–2 px in the image, 3–4 px in a 2×
+#: upsampled view of a data area 28–40 px wide) that the ±3 px search missed the border over
+#: part of the side and found a triangle's edge there, or nothing. The new line is the one most
+#: crossings of the second search agree on.
+_CONSENSUS_PX = 0.5
+#: ... when at least this many crossings agree on it.
+_CONSENSUS_MIN = 4
+#: Offsets (px) searched along a data-area side's normal when fewer than :data:`_CONSENSUS_MIN`
+#: of its first crossings agree (the border lay beyond the first search over most of the side):
+#: twice the first search's reach, at its step.
+_WIDE_OFFS = np.linspace(-6.0, 6.0, 25)
+
+
+def _consensus(x: _F64, y: _F64) -> tuple[_F64, float] | None:
+    """The least-squares line of the largest set of the points ``(x, y)`` lying within
+    :data:`_CONSENSUS_PX` of a line through two of them (None: fewer than :data:`_CONSENSUS_MIN`)."""
+    if len(x) < _CONSENSUS_MIN:
+        return None
+    i, j = np.triu_indices(len(x), 1)
+    dx, dy = x[j] - x[i], y[j] - y[i]
+    ln = np.maximum(np.hypot(dx, dy), 1e-9)
+    nx, ny = -dy / ln, dx / ln
+    dist = np.abs(nx[:, None] * (x[None, :] - x[i][:, None]) + ny[:, None] * (y[None, :] - y[i][:, None]))
+    inside = dist <= _CONSENSUS_PX
+    count = inside.sum(axis=1)
+    best = int(np.lexsort((np.where(inside, dist, 0.0).sum(axis=1), -count))[0])
+    if count[best] < _CONSENSUS_MIN:
+        return None
+    keep = inside[best]
+    n, c = _fit_samples(x[keep][None, :], y[keep][None, :], np.ones((1, int(keep.sum()))), np.array([keep.sum()]))
+    return n[0], float(c[0])
+
+
+def _recentre_quad_sides(
+    img: NDArray[np.float32],
+    level: float,
+    crossings: tuple[_F64, _F64, NDArray[np.bool_]],
+    lines: tuple[_F64, _F64],
+    rough: tuple[_F64, _F64],
+    ends: tuple[_F64, _F64],
+    quad: _F64,
+) -> NDArray[np.bool_]:
+    """The data-area sides searched again around the line their crossings agree on (see
+    :data:`_CONSENSUS_PX`), or over :data:`_WIDE_OFFS` around the rough line when too few agree.
+
+    Parameters
+    ----------
+    img, level
+        As for :func:`refine_lines`.
+    crossings : tuple of numpy.ndarray
+        The first search's ``(4, M)`` crossing coordinates ``px``, ``py`` and whether each was found.
+    lines : tuple of numpy.ndarray
+        The sides' fitted normals ``(4, 2)`` and offsets ``(4,)``, updated in place.
+    rough : tuple of numpy.ndarray
+        The rough sides' normals and offsets.
+    ends : tuple of numpy.ndarray
+        The rough sides' first and last ends, ``(4, 2)`` each.
+    quad : numpy.ndarray
+        The rough corners ``(4, 2)``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(4,)`` bool: the sides given a new line (at least :data:`_CONSENSUS_MIN` crossings of
+        the second search agree on it); the others keep theirs.
+    """
+    px, py, valid = crossings
+    normal, offset = lines
+    a, b = ends
+    res = np.abs(normal[:, 0, None] * px + normal[:, 1, None] * py - offset[:, None])
+    doubt = (~valid).any(axis=1) | (valid & (res > _QUAD_OUTLIER_PX)).any(axis=1)
+    redone = np.zeros(4, dtype=bool)
+    for q in np.flatnonzero(doubt & np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)):
+        line = _consensus(px[q][valid[q]], py[q][valid[q]])
+        n, c = (rough[0][q], float(rough[1][q])) if line is None else line
+        offs = _WIDE_OFFS if line is None else _REFINE_OFFS
+        if n @ rough[0][q] < 0:
+            n, c = -n, -c
+        # the rough side's ends projected onto the line, sampled as before
+        e0, e1 = (p - (n @ p - c) * n for p in (a[q], b[q]))
+        base = e0[None, :] + _REFINE_FR[:, None] * (e1 - e0)[None, :]  # (M, 2)
+        grid = (base[:, None, :] + offs[None, :, None] * n[None, None, :]).astype(np.float32)
+        vals = cv2.remap(img, grid, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)  # type: ignore[call-overload, unused-ignore]
+        vals -= level
+        above = vals > 0
+        inward = np.repeat(_inward(n[None], np.array([c]), quad), len(base))
+        change = (above[:, 1:] != above[:, :-1]) & _falls(above, inward)
+        j = np.where(change, np.abs(0.5 * (offs[1:] + offs[:-1])), np.inf).argmin(axis=1)
+        rows = np.arange(len(vals))
+        v0 = vals[rows, j]
+        den = v0 - vals[rows, j + 1]
+        step = den != 0
+        o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
+        found = change.any(axis=1)
+        pts = base[found] + o[found, None] * n[None, :]
+        again = _consensus(pts[:, 0], pts[:, 1])
+        if again is None:
+            continue
+        nf, cf = again
+        sign = 1.0 if nf @ normal[q] >= 0 else -1.0
+        normal[q], offset[q] = sign * nf, sign * cf
+        redone[q] = True
+    return redone
+
+
+def _inward(normal: _F64, offset: _F64, quad: _F64) -> NDArray[np.bool_]:
+    """Whether each line's normal points into the quad (towards its centre)."""
+    centre = quad.mean(axis=0)
+    out: NDArray[np.bool_] = normal @ centre - offset > 0
+    return out
+
+
+def _falls(above: NDArray[np.bool_], inward: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """``(R, O - 1)``: where a row of samples along a data-area side's normal crosses the border's
+    way — from the bright quiet zone into the dark data area (triangles bright, ``img`` of
+    :func:`refine`): falling along the normal when it points inward (``inward`` per row),
+    rising when it points out. A triangle's edge near the border, crossed from the dark strip
+    between them into the bright triangle, goes the other way."""
+    fall = above[:, :-1] & ~above[:, 1:]
+    out: NDArray[np.bool_] = fall == inward[:, None]
+    return out

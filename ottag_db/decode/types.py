@@ -124,7 +124,8 @@ class Detection:
     - ``corners_seen``: per corner of ``corners``, whether it was seen where the tag's printed
       placement puts it; a corner that was not (hidden, outside the frame) is given at its
       printed position, from the points (:func:`~ottag_db.decode.placement_check.printed_corners`).
-      None when the placement is unknown (a dictionary file) or for a reading by model.
+      None when the placement is unknown (a dictionary file) or for a reading by model;
+      ``corners_measured``: when one takes its printed position, all 4 as measured, in file coordinates.
     """
 
     lambda_text: str
@@ -141,6 +142,7 @@ class Detection:
     corrected_flips: int | None = None
     model_correlation: float | None = None
     corners_seen: tuple[bool, ...] | None = None
+    corners_measured: _F64 | None = None
 
     @property
     def center(self) -> tuple[float, float]:
@@ -155,8 +157,7 @@ class Rejected:
 
     ``reason`` is a :data:`RejectReason` (a key of :data:`REJECTION_REASONS`); ``corners`` the
     ``(4, 2)`` candidate quad (image pixels, clockwise on screen); ``lambda_text`` the ID read
-    before the rejection, if any; ``detail`` a short human-readable explanation with the
-    measured value.
+    before the rejection, if any; ``detail`` a short readable explanation with the measured value.
     """
 
     reason: RejectReason

@@ -371,10 +371,14 @@ def assess(
     best = min(fits, key=lambda f: f.err / bound + quad_w * min(f.par, 1e6) / max(p.max_quad_error, 1e-9))
     plc = entry.placements[best.real] if best.real < len(entry.placements) else None
     seen = None
+    measured = None
     if plc is not None:  # a corner the print puts elsewhere is hidden: it takes the printed position
         shown = p.verify and (printed or shows_print(quad, p))  # layout and placement were checked
+        as_measured = corners
         corners, seen_array = printed_corners(plc, best.hmat, corners, bound, shown)
         seen = tuple(bool(v) for v in seen_array[tag_plane_order(best.plane)])
+        if not all(seen):  # in file coordinates, which follow the homography when the detection is moved
+            measured = _to_file(best.hmat, tag_plane_corner_order(as_measured, best.plane))
     detection = Detection(
         lambda_text=lambda_text,
         k=entry.k,
@@ -388,8 +392,19 @@ def assess(
         reprojection_error_px=float(np.sqrt(((best.mapped - best.dst) ** 2).sum(axis=1)).max()),
         margin_px=margin,
         corners_seen=seen,
+        corners_measured=measured,
     )
     return Assessment(detection, error, bound)
+
+
+def _to_file(hmat: _F64, pts: _F64) -> _F64 | None:
+    """Image points mapped back through a homography (file coordinates → image); None when it
+    is singular or a point maps to infinity."""
+    try:
+        out = apply_homography(np.asarray(np.linalg.inv(hmat), dtype=np.float64), pts)
+    except np.linalg.LinAlgError:
+        return None
+    return out if np.isfinite(out).all() else None
 
 
 def _placed(entry: LookupEntry, fits: list[_Fit], system: LineSystem, corners: _F64, bound: float) -> list[_Fit] | str:

@@ -4,6 +4,7 @@ projections of a synthetic 8-point tag with measurement noise per kind of point.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -127,3 +128,32 @@ def test_ambiguity_is_a_ratio_and_the_flag_follows_it(
     )
     assert np.allclose(cv2.Rodrigues(pose.rvec)[0], pose.R)
     assert pose.reprojection_error_px < 2.0
+
+
+def _hide_corner(d: Detection, corner: int, print_off_px: float, measured_off_px: float) -> Detection:
+    """``d`` as a reading whose print put ``corner`` ``print_off_px`` away from where it was
+    measured (so it was not seen), that measurement ``measured_off_px`` off ``d``'s corner."""
+    measured = d.corners.copy()
+    measured[corner] += [measured_off_px, 0.0]
+    corners = measured.copy()
+    corners[corner] += [0.0, print_off_px]
+    seen = tuple(i != corner for i in range(4))
+    back = np.c_[measured, np.ones(4)] @ np.linalg.inv(d.homography).T  # type: ignore[arg-type]
+    return replace(d, corners=corners, corners_seen=seen, corners_measured=back[:, :2] / back[:, 2:])
+
+
+def test_a_corner_the_print_misplaced_counts_when_the_posed_square_puts_it_there() -> None:
+    """A corner well measured but not seen (the points' homography, extrapolated to the corner,
+    put its print 2 px off) is used at its measured position; one measured 3 px off is not, and
+    its neighbours weigh as vertices."""
+    rng = np.random.default_rng(7)
+    r_mat, t = _true_pose(2.2, 18.0, 1.1, 40.0)
+    d = _detection(r_mat, t, rng)
+    seen_pose = _pose(replace(d, corners_seen=(True,) * 4))
+    back = _pose(_hide_corner(d, 3, 2.0, 0.0))
+    assert np.allclose(back.rvec, seen_pose.rvec, atol=1e-9) and np.allclose(back.tvec, seen_pose.tvec, atol=1e-12)
+    off = _hide_corner(d, 3, 2.0, 3.0)
+    kept_out = _pose(off)
+    without = _pose(replace(off, corners_measured=None))
+    assert np.allclose(kept_out.rvec, without.rvec, atol=1e-9)
+    assert _normal_error(kept_out.R, r_mat) < 10 or kept_out.ambiguous
