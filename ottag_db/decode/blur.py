@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from ottag_db.decode.refine import lines_through, polygon_vertices
 from ottag_db.decode.types import Quad
 
 __all__ = [
@@ -165,16 +166,11 @@ class EdgeBlur:
         side = math.sqrt(max(quad.area, 1.0))
         if not np.isfinite(off).all() or np.abs(off).max() > _MAX_OFFSET * side:
             return quad
-        a = quad.corners + off[:, None] * self.normals  # a point of each moved side
-        d = np.roll(quad.corners, -1, axis=0) - quad.corners
-        corners = np.empty_like(a)
-        for i in range(4):  # corner i: sides i - 1 and i
-            j = (i - 1) % 4
-            m = np.array([d[j], -d[i]]).T
-            if abs(np.linalg.det(m)) < 1e-9:
-                return quad
-            t = np.linalg.solve(m, a[i] - a[j])
-            corners[i] = a[j] + t[0] * d[j]
+        normal, offset = lines_through(quad.corners)  # side i from corner i to i + 1
+        # each side moved along its own normal by its offset along the measured outward one
+        corners = polygon_vertices(normal, offset + off * (normal * self.normals).sum(axis=1), 4)
+        if not np.isfinite(corners).all():
+            return quad
         p, q = corners[2] - corners[0], corners[3] - corners[1]
         area = 0.5 * abs(float(p[0] * q[1] - p[1] * q[0]))
         return Quad(quad.polarity, corners, area, quad.inferred)
