@@ -19,7 +19,8 @@ from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.blur import NOMINAL_BLURS_PX, Blur, refined_blur
-from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, data_area_depths, square_homography
+from ottag_db.decode.ecc import ecc, to_roi
+from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
 
 __all__ = [
@@ -98,12 +99,13 @@ _MISFIT_WINDOW = 4
 _CELL_AVERAGE = 0.5
 #: The quiet zone drawn around the tag when it is judged (data-area units, :data:`INVERTED_QUIET`).
 _DRAWN_QUIET = INVERTED_QUIET
-_ECC_SMOOTHING = 1  # ECC's Gaussian kernel (1: none)
-#: The factor by which an ECC alignment may change the data area's area from its starting
-#: view's: the starting corners (a contour's, or an outline's fit) are within a few pixels of
-#: the tag's, which changes the area by well under 2× even at grazing views.
-_ECC_MAX_AREA_CHANGE = 3.0
-_ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 60, 1e-5)
+#: An alignment whose ECC first phase stayed unpromising (:data:`~ottag_db.decode.ecc.PROMISING_CORRELATION`)
+#: is refined on only when the tag judged there correlates this well (or better) with the
+#: frame. A reading needs ``model_min_correlation`` (0.92) and a lead of ``model_min_gap`` (0.08)
+#: over every rival, so a rival under 0.84 never refuses it; 0.05 below that covers what the
+#: rest of ECC's steps could still add (the ECC correlation moves by under 0.02 after the first
+#: phase). Others count as not aligned: by their coarse score, like an alignment ECC lost.
+_UNREFINED_MAX_CORRELATION = 0.79
 
 
 @dataclass(frozen=True)
@@ -185,12 +187,6 @@ def neighbourhood(gray: NDArray[np.uint8], corners: list[_F64]) -> tuple[_F32, _
     return np.asarray(gray[y0:y1, x0:x1], dtype=np.float32), np.array([x0, y0], dtype=np.float64)
 
 
-def to_roi(origin: _F64) -> _F64:
-    """The translation from frame pixels to those of a neighbourhood whose pixel (0, 0) lies at
-    frame position ``origin`` (see :func:`neighbourhood`)."""
-    return np.array([[1.0, 0, -origin[0]], [0, 1.0, -origin[1]], [0, 0, 1.0]])
-
-
 #: The outline templates of :func:`align_outline` and the blank tags it aligns a data area read
 #: inside a quad of the other polarity to, per polarity (constant: built once at import).
 _OUTLINE_TEMPLATES: dict[Polarity, _F32] = {
@@ -201,58 +197,6 @@ _BLANK_TEMPLATES: dict[Polarity, _F32] = {
     "normal": fine_template(np.zeros((0, 3, 2)), "normal"),
     "inverted": fine_template(np.zeros((0, 3, 2)), "inverted"),
 }
-
-
-def ecc(
-    roi: _F32,
-    origin: _F64,
-    template: _F32,
-    corners: _F64,
-    px_to_unit: _F64 = _FINE_PX_TO_UNIT,
-    template_mask: NDArray[np.uint8] | None = None,
-) -> tuple[_F64, _F64] | None:
-    """ECC alignment of a refinement template (see :func:`fine_template`) to the frame, from the
-    data-area ``corners``; ``roi`` is the frame around the quad, its pixel (0, 0) at frame
-    position ``origin``; ``px_to_unit`` maps template pixels to data-area units and
-    ``template_mask`` (non-zero: used) leaves template pixels out. Returns the homographies
-    data-area units → frame and template pixels → ``roi``, or None when ECC fails."""
-    start = square_homography(corners)
-    if start is None or roi.shape[0] < 4 or roi.shape[1] < 4:
-        return None
-    frame_to_roi = to_roi(origin)
-    warp = (frame_to_roi @ start @ px_to_unit).astype(np.float32)
-    try:
-        if template_mask is None:
-            # no mask (the stubs do not list a None mask)
-            rho, warp = cv2.findTransformECC(  # type: ignore[call-overload, unused-ignore]
-                template, roi, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, None, _ECC_SMOOTHING
-            )
-        else:
-            every = np.full(roi.shape, 255, dtype=np.uint8)  # every frame pixel is valid
-            rho, masked = cv2.findTransformECCWithMask(
-                template, roi, template_mask, every, warp, cv2.MOTION_HOMOGRAPHY, _ECC_CRITERIA, _ECC_SMOOTHING
-            )
-            warp = np.asarray(masked, dtype=np.float32)
-    except cv2.error:
-        return None  # ECC did not converge (or the warp became singular)
-    warp64 = np.asarray(warp, dtype=np.float64)
-    to_frame = np.linalg.inv(frame_to_roi) @ warp64 @ np.linalg.inv(px_to_unit)
-    to_frame /= to_frame[2, 2]
-    if not np.isfinite(to_frame).all() or not math.isfinite(rho):
-        return None
-    # the data area must stay in front of the camera (depth w > 0 at its corners, 1 at the
-    # first): ECC can wander into a map that sends part of it across the horizon, no view of a
-    # tag (a rival with ρ 0.94 that way was once drawn from garbage polygons)
-    if not (data_area_depths(to_frame) > 0).all():
-        return None
-    # ... and keep about the size it started from: ECC refines a view, and one that shrinks
-    # the data area to a few pixels (a 31 px candidate's to 8 px, on a blurred frame) or
-    # swells it has collapsed onto a detail or wandered off, whatever it correlates
-    aligned_area = abs(float(cv2.contourArea(apply_homography(to_frame, UNIT_SQUARE).astype(np.float32))))
-    start_area = abs(float(cv2.contourArea(corners.astype(np.float32))))
-    if not start_area / _ECC_MAX_AREA_CHANGE <= aligned_area <= start_area * _ECC_MAX_AREA_CHANGE:
-        return None
-    return to_frame, warp64
 
 
 def align_outline(roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, inside: bool = False) -> _F64 | None:
@@ -292,10 +236,13 @@ def align_outline(roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, in
         ``(3, 3)`` homography data-area units → frame pixels, or None when ECC fails.
     """
     if inside:
-        found = ecc(roi, origin, _BLANK_TEMPLATES[polarity], corners)
+        template, px_to_unit, mask = _BLANK_TEMPLATES[polarity], _FINE_PX_TO_UNIT, None
     else:
-        found = ecc(roi, origin, _OUTLINE_TEMPLATES[polarity], corners, _OUTLINE_PX_TO_UNIT, _OUTLINE_MASK)
-    return None if found is None else found[0]
+        template, px_to_unit, mask = _OUTLINE_TEMPLATES[polarity], _OUTLINE_PX_TO_UNIT, _OUTLINE_MASK
+    # an unpromising alignment (see ottag_db.decode.ecc) is used where its first phase left it:
+    # its correlation has settled, and the outline only starts the tags' own alignments
+    found = ecc(roi, origin, template, corners, px_to_unit, mask)
+    return None if found is None else found.to_frame
 
 
 def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_polarity: Polarity) -> list[View]:
@@ -342,14 +289,20 @@ def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_
 def align(
     roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, frame_blur: Blur | None = None
 ) -> Aligned | None:
-    """ECC alignment of template ``row`` to the frame from the view's corners (see :func:`ecc`),
-    judged against the tag as the camera would see it there (``frame_blur``: see
-    :func:`judge`); None when ECC fails."""
+    """ECC alignment of template ``row`` to the frame from the view's corners
+    (:func:`~ottag_db.decode.ecc.ecc`), judged against the tag as the camera would see it there
+    (``frame_blur``: see :func:`judge`); None when ECC fails, or when its first phase stayed
+    unpromising and the tag judged there correlates under :data:`_UNREFINED_MAX_CORRELATION`."""
     template = fine_template(bank.triangles[row], view.polarity)
-    found = ecc(roi, origin, template, view.corners)
+    found = ecc(roi, origin, template, view.corners, _FINE_PX_TO_UNIT)
+    if found is not None and not found.converged:
+        judged = judge(roi, origin, bank, row, view, found.to_frame, frame_blur)
+        if max(judged.correlation, judged.blurred_correlation) < _UNREFINED_MAX_CORRELATION:
+            return None  # can neither be read nor rival a reading: counted as not aligned
+        found = ecc(roi, origin, template, view.corners, _FINE_PX_TO_UNIT, resume=found)
     if found is None:
         return None
-    return judge(roi, origin, bank, row, view, found[0], frame_blur)
+    return judge(roi, origin, bank, row, view, found.to_frame, frame_blur)
 
 
 def _drawn(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64) -> _F32:
