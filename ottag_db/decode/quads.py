@@ -4,6 +4,7 @@ of one frame are the same data area or the same tag (the detector's memory withi
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -142,7 +143,7 @@ def outlined_before(quad: Quad, seen: list[Quad]) -> bool:
     bool
         True when one of them is the same data area (:func:`same_quad`).
     """
-    return any(same_quad(quad, o) for o in seen)
+    return bool(_twins(quad, seen))
 
 
 def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
@@ -169,7 +170,7 @@ def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
     -------
     bool
     """
-    twins = [o for o in seen if same_quad(quad, o)]
+    twins = _twins(quad, seen)
     if not twins:
         return False
     if squeeze(quad) > max_ratio:
@@ -180,6 +181,26 @@ def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
         if float(gaps.min(axis=1).max()) < OUTLINE_MOVED_PX:
             return True
     return False
+
+
+def _twins(quad: Quad, seen: Sequence[Quad]) -> list[Quad]:
+    """The candidates of ``seen`` that are the same data area as ``quad`` (:func:`same_quad`'s
+    test, on all of them at once: a frame of brick or foliage holds a hundred candidates a
+    pass, each compared with every earlier one)."""
+    alike = [o for o in seen if o.polarity == quad.polarity]
+    if not alike:
+        return []
+    areas = np.array([o.area for o in alike])
+    ratio = quad.area / np.maximum(areas, 1e-9)
+    near = (ratio > 0.7) & (ratio < 1.4)
+    if not near.any():
+        return []
+    alike = [o for o, keep in zip(alike, near.tolist(), strict=True) if keep]
+    centres = np.stack([o.corners for o in alike]).sum(axis=1) / 4  # (m, 2), as _centre sums
+    cx, cy = _centre(quad.corners.tolist())
+    gap = np.sqrt((cx - centres[:, 0]) ** 2 + (cy - centres[:, 1]) ** 2)
+    close = gap < 0.15 * np.sqrt(np.maximum(quad.area, areas[near]))
+    return [o for o, keep in zip(alike, close.tolist(), strict=True) if keep]
 
 
 def _centre(corners: list[list[float]]) -> tuple[float, float]:
