@@ -145,15 +145,18 @@ def identify(
         # the print need not be there (tags drawn by other programs), but where its triangles
         # are they tell the labelings apart (the placement, in verification, too). Another
         # program's triangles can match the stored layout under a wrong turn: the labelings
-        # they pick must then fit, else every labeling is judged by its fit.
+        # they pick must then fit, their points too (a turn of a near-symmetric point set fits
+        # the side lines within the bound with its points a dozen px off), else every labeling
+        # is judged by its fit. Only the labeling changes: the order type read is the same.
         printed = _as_printed(member, minimal, observed_triangles(lines))
         if printed is not None:
             turned, (member, minimal) = (member, minimal), printed
     clock.lap("identify")
     checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=required)
-    if turned is not None and not isinstance(checked.result, Detection):
-        member, minimal = turned
-        checked = assess(member, pts, lines, minimal, corners, quad, table.margin, lam, p, printed=required)
+    if turned is not None and not _points_within(checked):
+        again = assess(turned[0], pts, lines, turned[1], corners, quad, table.margin, lam, p, printed=required)
+        if _points_within(again) or not isinstance(checked.result, Detection):
+            (member, minimal), checked = turned, again
     result = checked.result
     if (
         isinstance(result, Detection)
@@ -183,6 +186,17 @@ def identify(
         result = _corners_as_printed(result, quad, p)
     clock.lap("verify")
     return result
+
+
+def _points_within(checked: Assessment) -> bool:
+    """Whether the assessment is a detection whose points, not only its side lines, lie within
+    its reprojection bound of where its fit puts them."""
+    result = checked.result
+    return (
+        isinstance(result, Detection)
+        and result.reprojection_error_px is not None
+        and result.reprojection_error_px <= checked.bound
+    )
 
 
 def _corners_as_printed(reading: Detection, quad: Quad, params: DetectorParams) -> Detection | Rejection:

@@ -23,6 +23,7 @@ from ottag_db.decode.quads import squeeze
 from ottag_db.decode.refine import refine
 from ottag_db.decode.segmentation import MAX_TRIANGLES, NO_DECOMPOSITION, decompose, segment, then_alternatives
 from ottag_db.decode.splitting import FitMemo, SearchBudget
+from ottag_db.decode.tips import apices, with_apices
 from ottag_db.decode.triangles import bad_triangles
 from ottag_db.decode.types import Decomposition, Detection, DetectorParams, Quad, Rejection
 
@@ -155,9 +156,12 @@ def read_area(
         if to_frame is not None:
             normal, offset = to_frame.lines_to_frame(normal, offset)
         hypotheses = cluster_hypotheses(tris, 0.15 * side, sure, tol)
+        # sharp tips at their apex, measured on the grey image (their lines meet at a small angle)
+        measured = apices(roi_f, tris, area.level)
         clock.lap("cluster")
         loose: Detection | None = None
         for hyp in hypotheses:
+            hyp = with_apices(hyp, measured)
             pts = hyp.points + area.origin
             if to_frame is not None:
                 pts = to_frame.points_to_frame(pts)
