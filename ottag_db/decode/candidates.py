@@ -12,7 +12,14 @@ from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.image import frame_has_contrast
-from ottag_db.decode.outlines import at_frame_edge, data_area_inside, holes_at_frame_edge, lines_outline
+from ottag_db.decode.outlines import (
+    SPIKE_MAX_HOLES,
+    at_frame_edge,
+    data_area_inside,
+    holes_at_frame_edge,
+    lines_outline,
+    without_spikes,
+)
 from ottag_db.decode.placement_check import UNIT_SQUARE
 from ottag_db.decode.quads import clockwise, same_quad, squeeze
 from ottag_db.decode.types import DetectorParams, Quad
@@ -140,8 +147,9 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     if hier is None:
         return quads
     parents = hier[0][:, 3]
-    # (contour, inverted, its length in px, a dark region with bright holes: triangles, maybe)
-    outlines: list[tuple[NDArray[Any], bool, float, bool]] = []
+    # (contour, inverted, its length in px, its first hole or -1: a dark region with bright
+    # holes holds triangles, maybe)
+    outlines: list[tuple[NDArray[Any], bool, float, int]] = []
     for i, c in enumerate(contours):
         if len(c) < min_len:
             continue
@@ -152,16 +160,17 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             inverted = False  # a dark hole in a bright quiet zone: a normal data area
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
-        outlines.append((c, inverted, len(c), bool(hier[0][i][2] >= 0)))
+        outlines.append((c, inverted, len(c), int(hier[0][i][2])))
     if kind == "adaptive" and want_inverted and p.outline_by_lines:  # (half resolution: cheap)
-        outlines.extend((c, True, len(c), False) for c in holes_at_frame_edge(mask, min_len))
+        outlines.extend((c, True, len(c), -1) for c in holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
     joined_inverted = kind == "adaptive_thin"
     if kind in ("adaptive_thin", "bright_holes") and (want_inverted if joined_inverted else want_normal):
         hulls = _joined_holes(contours, hier[0], min_len)
-        outlines.extend((hull, joined_inverted, cv2.arcLength(hull, True), False) for hull in hulls)
-    for c, inverted, perimeter, holds_holes in outlines:
+        outlines.extend((hull, joined_inverted, cv2.arcLength(hull, True), -1) for hull in hulls)
+    for c, inverted, perimeter, first_hole in outlines:
+        holds_holes = first_hole >= 0
         approx = _quad_outline(c, perimeter)
         if approx is None and kind == "adaptive_thin" and not inverted:
             approx = _notched_outline(c)
@@ -174,6 +183,8 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         lines = lines and (inverted or holds_holes)
         if lines:
             approx = lines_outline(c, perimeter, mask.shape)
+            if approx is None and not inverted:  # a bar or an occluder's edges as spikes?
+                approx = without_spikes(c, _holes(contours, hier[0], first_hole), mask.shape)
         elif opened:  # an inverted tag's quiet zone, opened: its data area inside
             outer = lines_outline(c, perimeter, mask.shape, ring=True)
             approx = None if outer is None else data_area_inside(outer)
@@ -215,6 +226,16 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
             quads.append(cand)
     quads.sort(key=lambda qq: -qq.area)
     return quads[: p.max_candidates]
+
+
+def _holes(contours: Sequence[NDArray[Any]], hierarchy: NDArray[np.int32], first: int) -> list[NDArray[Any]]:
+    """The holes of a region (``RETR_CCOMP``), from its ``first`` hole on; only the first
+    ``SPIKE_MAX_HOLES + 1`` (a region with more holds no data area with spikes)."""
+    out: list[NDArray[Any]] = []
+    while first >= 0 and len(out) <= SPIKE_MAX_HOLES:
+        out.append(contours[first])
+        first = int(hierarchy[first][0])
+    return out
 
 
 def _quad_outline(contour: NDArray[Any], perimeter: float) -> NDArray[Any] | None:

@@ -26,10 +26,13 @@ from ottag_db.decode.quads import clockwise
 __all__ = [
     "LINES_MIN_SOLIDITY",
     "LINES_MIN_SUPPORT",
+    "SPIKE_MAX_HOLES",
+    "SPIKE_RADIUS",
     "at_frame_edge",
     "data_area_inside",
     "holes_at_frame_edge",
     "lines_outline",
+    "without_spikes",
 ]
 
 #: An outline that is no quad (a finger or bar across the border, a corner cut by the frame)
@@ -51,11 +54,36 @@ _LINES_CONSIDERED = 7
 #: regions of foliage, gravel and text mostly much less.
 LINES_MIN_SOLIDITY = 0.6
 _LINES_AREA_RATIO = (0.8, 1.3)
+#: A quad-like outline (fewer than five polygon vertices at the usual tolerance) is
+#: approximated again at this fraction of it: a corner the frame's edge cuts 2–6 px deep (4–7 %
+#: of a 110–170 px side at half resolution) is shallower than the tolerance, which rounds the
+#: cut into a single vertex on the frame's edge instead of the two ends of the edge's run.
+_FINE_TOLERANCE = 0.35
 #: The same for an inverted tag's quiet zone opened into a C (``ring``): it fills 0.56 of its
 #: outline (0.45–0.75 under blur and an occluder), and 0.35–0.75 of its hull (a solid region
 #: is no ring).
 _RING_AREA_RATIO = (1 / 0.75, 1 / 0.45)
 _RING_SOLIDITY = (0.35, 0.75)
+#: A dark region whose outline is a data area with spikes (:func:`without_spikes`) keeps what
+#: a disk of this radius, in units of the side of its holes' hull (about the data area's), can
+#: reach within it: a bar across the border is 4–6 % of the side wide and the edges of an
+#: occluder a few px (at half resolution), thinner than the disk's 20 %, which the data area's
+#: 50–85 px at half resolution hold with ease.
+SPIKE_RADIUS = 0.1
+#: The region is looked at within this margin (in units of the holes' hull side) around the
+#: hull: in the local threshold's mask the holes are the data area's interior (its uniform
+#: parts and triangles), in the global one its triangles, whose hull spans most of the side.
+#: A wider margin takes in more of an occluder (whose edges may close around it and keep it
+#: thick): with 0.7 and 1.0, 3 of 80 covered corners no longer read that 0.5 reads.
+_SPIKE_MARGIN = 0.5
+#: Holes of fewer contour points than this are specks, not parts of the data area's interior.
+_SPIKE_MIN_HOLE = 4
+#: A region with more holes than this holds no data area with spikes: a data area's holes in
+#: the local threshold's mask are its triangles (at most 12 hold a tag's points) and the
+#: uniform parts of its interior between them, 1–35 in occluded views at 110–170 px; the
+#: regions of foliage, gravel and text hold hundreds to thousands, whose hull is most of the
+#: frame.
+SPIKE_MAX_HOLES = 64
 #: A run of collinear outline edges: (support px, a point x, y, direction x, y, first edge).
 _Run = tuple[float, float, float, float, float, int]
 
@@ -100,6 +128,9 @@ def lines_outline(
         return None  # ragged: texture, not a square with a spike, a notch or a cut corner
     tol = max(1.5, _LINE_DISTANCE * perimeter)
     poly: list[list[float]] = cv2.approxPolyDP(contour, tol, True).reshape(-1, 2).astype(float).tolist()
+    if len(poly) < 5 and not ring:  # a corner cut off by a few px: the polygon rounds it off
+        fine = max(1.0, _FINE_TOLERANCE * tol)
+        poly = cv2.approxPolyDP(contour, fine, True).reshape(-1, 2).astype(float).tolist()
     if len(poly) < 5 or len(poly) > 24:
         return None
     h, w = shape[:2]
@@ -141,9 +172,91 @@ def lines_outline(
         area = abs(float(cv2.contourArea(quad)))
         if least * region <= area <= most * region:
             best_quad, best_support = quad, support
-    if best_quad is None or best_support < LINES_MIN_SUPPORT * cv2.arcLength(best_quad, True):
+    if best_quad is None or best_support < LINES_MIN_SUPPORT * _length_in_frame(best_quad, (w, h)):
         return None
     return best_quad
+
+
+def _length_in_frame(quad: NDArray[Any], size: tuple[int, int]) -> float:
+    """The length of the sides of ``quad`` (``(4, 1, 2)``) within a frame of ``size`` = (W, H):
+    what of its outline can be seen (a corner cut by the frame's edge takes parts of two sides
+    with it, as much as a quarter of a side nearly parallel to that edge). Only one corner may
+    lie beyond the edge (three seen ones hold the quad, as
+    :data:`~ottag_db.decode.placement_check.CORNERS_TO_TRUST_PRINT` hold the print): with more,
+    the whole perimeter counts, as for a quad within the frame."""
+    w, h = size
+    pts: list[list[float]] = quad.reshape(4, 2).astype(float).tolist()
+    if sum(not (0 <= x <= w - 1 and 0 <= y <= h - 1) for x, y in pts) > 1:
+        return float(cv2.arcLength(quad, True))
+    total = 0.0
+    for (ax, ay), (bx, by) in zip(pts, pts[1:] + pts[:1], strict=True):
+        lo, hi = 0.0, 1.0  # the part of a→b inside the frame (Liang–Barsky)
+        for p, q in ((ax - bx, ax), (bx - ax, w - 1 - ax), (ay - by, ay), (by - ay, h - 1 - ay)):
+            if p == 0:
+                if q < 0:
+                    hi = lo - 1.0  # parallel to this edge and outside
+                continue
+            t = q / p
+            if p < 0:
+                lo = max(lo, t)
+            else:
+                hi = min(hi, t)
+        if hi > lo:
+            total += (hi - lo) * math.hypot(bx - ax, by - ay)
+    return total
+
+
+def without_spikes(contour: NDArray[Any], holes: Sequence[NDArray[Any]], shape: tuple[int, ...]) -> NDArray[Any] | None:
+    """The quad of a dark region's outline without its spikes, or None.
+
+    A bar across a normal tag's border, or the edges of an occluder covering a corner, join the
+    dark data area to dark parts outside the quiet zone: the region's outline is the data area
+    with long, thin spikes, too ragged for :func:`lines_outline`. The data area is where the
+    region is thick: of the filled outline near the hull of its holes (the triangles and the
+    interior), what lies within twice :data:`SPIKE_RADIUS` of the hull's side of the points
+    more than that radius deep inside it keeps the data area, its corners too, and cuts the
+    spikes to stubs; that is outlined by :func:`lines_outline`. Regions of more than
+    :data:`SPIKE_MAX_HOLES` holes are not looked at.
+
+    Parameters
+    ----------
+    contour : numpy.ndarray
+        ``(n, 1, 2)`` int32 outer contour of a dark region.
+    holes : sequence of numpy.ndarray
+        The contours of its holes.
+    shape : tuple of int
+        ``(H, W)`` of the image the contour was traced in.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``(4, 1, 2)`` float32 corners.
+    """
+    if len(holes) > SPIKE_MAX_HOLES:
+        return None
+    inner = [hole for hole in holes if len(hole) >= _SPIKE_MIN_HOLE]
+    if not inner:
+        return None
+    hull = cv2.convexHull(np.concatenate(inner))
+    side = math.sqrt(abs(float(cv2.contourArea(hull))))
+    radius = round(SPIKE_RADIUS * side)
+    if radius < 2:
+        return None
+    x, y, bw, bh = cv2.boundingRect(hull)
+    pad = round(_SPIKE_MARGIN * side) + radius
+    x0, y0 = max(x - pad, 0), max(y - pad, 0)
+    x1, y1 = min(x + bw + pad, shape[1]), min(y + bh + pad, shape[0])
+    filled = np.zeros((y1 - y0, x1 - x0), dtype=np.uint8)
+    cv2.drawContours(filled, [contour], -1, 255, cv2.FILLED, offset=(-x0, -y0))
+    # opened by the disk (distance transforms: linear in the pixels, whatever the radius)
+    deep = (cv2.distanceTransform(filled, cv2.DIST_L2, 3) > radius).astype(np.uint8)
+    near = cv2.distanceTransform(1 - deep, cv2.DIST_L2, 3) <= 2 * radius
+    kept = np.where(near, filled, 0).astype(np.uint8)
+    found, _ = cv2.findContours(kept, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE, offset=(x0, y0))
+    if not found:
+        return None
+    main = max(found, key=len)
+    return lines_outline(main, float(len(main)), shape)
 
 
 def holes_at_frame_edge(mask: NDArray[Any], min_len: float) -> list[NDArray[Any]]:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -177,7 +178,12 @@ CORNERS_TO_TRUST_PRINT = 3
 
 
 def printed_corners(
-    placement: _F64, hmat: _F64, corners: _F64, tolerance_px: float, print_shown: bool = False
+    placement: _F64,
+    hmat: _F64,
+    corners: _F64,
+    tolerance_px: float,
+    print_shown: bool = False,
+    points: tuple[_F64, _F64] | None = None,
 ) -> tuple[_F64, NDArray[np.bool_]]:
     """The data-area corners where the printed placement puts them, and which were seen there.
 
@@ -201,6 +207,11 @@ def printed_corners(
         Largest distance of a seen corner from its printed position.
     print_shown : bool, optional
         The reading was checked against the stored layout and placement and passed.
+    points : tuple of numpy.ndarray, optional
+        The reading's ``(k, 2)`` realization points (plane) and their ``(k, 2)`` image points:
+        a hidden corner then takes its position from the homography fitted to the points and
+        the seen corners together (the seen corners, at the data area's extremes, hold the
+        view's perspective better than the points inside it).
 
     Returns
     -------
@@ -219,10 +230,20 @@ def printed_corners(
         return corners, np.ones(4, dtype=bool)
     # each measured corner against the printed one of the same turn (the quad's corner order is
     # its own, and a hidden corner may be far off)
-    matched = printed[_match_corners(corners, printed)]
+    order = _match_corners(corners, printed)
+    matched = printed[order]
     seen = np.linalg.norm(corners - matched, axis=1) <= tolerance_px
     if not print_shown and int(seen.sum()) < CORNERS_TO_TRUST_PRINT:
         return corners, np.ones(4, dtype=bool)
+    if points is not None and 0 < int(seen.sum()) < 4:
+        plane = apply_homography(np.linalg.inv(affine), UNIT_SQUARE[order])  # each corner's, in the plane
+        src = np.vstack([points[0], plane[seen]]).astype(np.float32)
+        dst = np.vstack([points[1], corners[seen]]).astype(np.float32)
+        refit, _ = cv2.findHomography(src, dst, 0)
+        if refit is not None:
+            again = apply_homography(np.asarray(refit, dtype=np.float64), plane)
+            if np.isfinite(again).all():
+                matched = again
     return np.where(seen[:, None], corners, matched), seen
 
 

@@ -375,7 +375,7 @@ def assess(
     if plc is not None:  # a corner the print puts elsewhere is hidden: it takes the printed position
         shown = p.verify and (printed or shows_print(quad, p))  # layout and placement were checked
         as_measured = corners
-        corners, seen_array = printed_corners(plc, best.hmat, corners, bound, shown)
+        corners, seen_array = printed_corners(plc, best.hmat, corners, bound, shown, (best.src, best.dst))
         seen = tuple(bool(v) for v in seen_array[tag_plane_order(best.plane)])
         if not all(seen):  # in file coordinates, which follow the homography when the detection is moved
             measured = _to_file(best.hmat, tag_plane_corner_order(as_measured, best.plane))
