@@ -50,6 +50,12 @@ BLURRED_MIN_SIGMA = 1.2
 #: sharp on one side and soft on the opposite one (half the blurred quads of scikit-image's
 #: photographs).
 BLURRED_PAIR_RATIO = 2.0
+#: How many standard errors of each side's measured blur (:attr:`EdgeBlur.errors`) the pair test
+#: of :data:`BLURRED_PAIR_RATIO` allows: under sensor noise a side's nine samples scatter
+#: (noise σ 6 on a step of 50 grey levels: ±0.3–0.8 px about a defocus of 2.5 px), and a
+#: defocused tag's opposite sides then measured 1.5 and 3.0 px; clutter sharp on one side and
+#: soft on the other measures each side consistently along it, so its errors stay small.
+BLURRED_PAIR_ERRORS = 2.0
 #: The largest local misfit (in units of the frame's contrast, as ``model_max_misfit``) of a
 #: tag read by model when judged with the blur its sides measure. Drawn with the right blur,
 #: the tag seen explains the frame nearly exactly: 0.02–0.04 under defocus of 2–4 px, up to
@@ -64,6 +70,13 @@ BLURRED_MAX_MISFIT = 0.12
 #: model costs 20–40 ms. Taken also from the outline moved onto the sides' blurred steps
 #: (:meth:`EdgeBlur.centred`), the better of the two.
 BLURRED_MIN_RANKING = 0.7
+#: The coarse match a blurred candidate needs when its sides' largest blur spans a whole cell of
+#: the ranking grid or more (between half a cell and a cell, the floor falls linearly from
+#: :data:`BLURRED_MIN_RANKING`): the ranking templates are sharp, and a blur of a cell mixes
+#: each cell's print with its neighbours'. Tags 98 px wide moved by 15–17 px (sides measuring
+#: σ 3.5–6 px, 0.6–1 cell) correlate 0.55–0.7 with their printed tag; the budget of readings
+#: by model still bounds what the lower floor costs on clutter.
+BLURRED_MIN_RANKING_SMEARED = 0.6
 #: The smallest correlation with the nominal drawing (the first of :data:`NOMINAL_BLURS_PX`)
 #: for which a blurred candidate's aligned tags are judged again with its measured blur: a
 #: tag defocused by up to 4 px or moved by up to 15 px still correlates 0.8–0.96 with its
@@ -127,11 +140,15 @@ class EdgeBlur:
     offsets : tuple of float
         Per side, how far (frame px, along its outward normal) the step's midpoint lies from
         the side; NaN where the side's blur is.
+    errors : tuple of float
+        Per side, the standard error (frame px) of its blur, from the scatter of its samples
+        (1.25 × 1.48 × their median absolute deviation / √count); NaN where the side's blur is.
     """
 
     sides: tuple[float, ...]
     normals: _F64
     offsets: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    errors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
 
     @property
     def largest(self) -> float:
@@ -143,13 +160,40 @@ class EdgeBlur:
     def blurred(self) -> bool:
         """Whether these are a blurred tag's sides: the largest blur at least
         :data:`BLURRED_MIN_SIGMA`, every side measured, and opposite sides blurred alike
-        (within :data:`BLURRED_PAIR_RATIO`)."""
+        (within :data:`BLURRED_PAIR_RATIO`, each side's blur allowed :data:`BLURRED_PAIR_ERRORS`
+        standard errors towards the other's)."""
         if self.largest < BLURRED_MIN_SIGMA or not all(math.isfinite(s) for s in self.sides):
             return False
         # sides sharper than a camera in focus blurs count as that sharp (a motion along a pair)
         floor = NOMINAL_BLURS_PX[1]
-        pairs = [(max(self.sides[i], floor), max(self.sides[i + 2], floor)) for i in (0, 1)]
-        return all(max(a, b) <= BLURRED_PAIR_RATIO * min(a, b) for a, b in pairs)
+        for i in (0, 1):
+            (low, e_low), (high, e_high) = sorted(
+                ((max(self.sides[j], floor), self.errors[j]) for j in (i, i + 2)), key=lambda v: v[0]
+            )
+            spread = BLURRED_PAIR_ERRORS * np.nan_to_num(np.array([e_low, e_high]))
+            if max(high - spread[1], low) > BLURRED_PAIR_RATIO * (low + spread[0]):
+                return False
+        return True
+
+    def min_ranking(self, side: float, grid: int) -> float:
+        """The coarse match a blurred candidate of this blur needs to be read by model: from
+        :data:`BLURRED_MIN_RANKING` (the largest blur within half a cell of the ranking grid)
+        down to :data:`BLURRED_MIN_RANKING_SMEARED` (a cell or more), linearly in between.
+
+        Parameters
+        ----------
+        side : float
+            The data area's side (frame px).
+        grid : int
+            Cells per side of the ranking grid.
+
+        Returns
+        -------
+        float
+        """
+        cells = self.largest * grid / max(side, 1.0)
+        share = min(max(2.0 * cells - 1.0, 0.0), 1.0)  # 0 at half a cell, 1 at a whole one
+        return BLURRED_MIN_RANKING + share * (BLURRED_MIN_RANKING_SMEARED - BLURRED_MIN_RANKING)
 
     def centred(self, quad: Quad) -> Quad:
         """``quad`` with each side moved onto its step's midpoint (:attr:`offsets`), the
@@ -426,10 +470,18 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     count = np.isfinite(sigma).sum(axis=1)
     valid = (count >= len(_ALONG) // 2) & (length >= 4)
     per_side = np.where(valid, _finite_medians(sigma, count), np.nan)
+    # each side's standard error from its samples' median absolute deviation
+    mad = _finite_medians(np.abs(sigma - per_side[:, None]), count)
+    errors = np.where(valid, 1.2533 * 1.4826 * mad / np.sqrt(np.maximum(count, 1)), np.nan)
     # the step's midpoint: the steepest point's median position across the side
     where = np.where(np.isfinite(sigma.ravel()), across[steepest] + _ACROSS_STEP / 2, np.nan).reshape(4, len(_ALONG))
     offsets = np.where(valid, _finite_medians(where, count), np.nan)
-    return EdgeBlur(tuple(float(v) for v in per_side), normal, tuple(float(v) for v in offsets))
+    return EdgeBlur(
+        tuple(float(v) for v in per_side),
+        normal,
+        tuple(float(v) for v in offsets),
+        tuple(float(v) for v in errors),
+    )
 
 
 def _finite_medians(values: _F64, count: NDArray[np.int64]) -> _F64:

@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
-from ottag_db.decode.blur import BLURRED_MIN_RANKING, BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, edge_blur
+from ottag_db.decode.blur import BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, edge_blur
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
@@ -47,7 +47,7 @@ from ottag_db.decode.quads import (
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
 from ottag_db.decode.splitting import FRAME_SEARCH, SearchBudget
-from ottag_db.decode.templates import template_bank
+from ottag_db.decode.templates import RANKING_GRID, template_bank
 from ottag_db.decode.types import (
     Detection,
     DetectionReport,
@@ -291,7 +291,8 @@ class Detector:
     def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> tuple[EdgeBlur, float, Quad] | None:
         """A candidate the points did not read that looks like a blurred tag — its sides blurred
         alike (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`), its coarse match like a printed
-        tag (:data:`~ottag_db.decode.blur.BLURRED_MIN_RANKING`) — as its blur, coarse match and
+        tag (:meth:`~ottag_db.decode.blur.EdgeBlur.min_ranking`: lower for a blur that spans a
+        cell of the ranking grid) — as its blur, coarse match and
         the outline it is read by model from; else None. The coarse match is taken from the
         threshold's outline and from the outline on its sides' blurred steps
         (:meth:`~ottag_db.decode.blur.EdgeBlur.centred`), the better of the two."""
@@ -303,7 +304,8 @@ class Detector:
         centred = blur.centred(quad)
         outlines = (quad,) if centred is quad else (quad, centred)
         score, best = max((ranking_score(gray, q, self._bank, self._params), i) for i, q in enumerate(outlines))
-        return (blur, score, outlines[best]) if score >= BLURRED_MIN_RANKING else None
+        floor = blur.min_ranking(math.sqrt(quad.area), RANKING_GRID)
+        return (blur, score, outlines[best]) if score >= floor else None
 
 
 def read_quad(
