@@ -145,6 +145,7 @@ def lines_outline(
             edges.append((length, i, ax, ay, (bx - ax) / length, (by - ay) / length))
     cos_tol = math.cos(math.radians(_LINE_ANGLE_DEG))
     runs: list[_Run] = []
+    spans: dict[int, list[tuple[float, float]]] = {}  # per run (its first edge): edges along its line
     for length, i, ax, ay, ux, uy in sorted(edges, reverse=True):
         bx, by = ax + length * ux, ay + length * uy
         for j, (support, px, py, dx, dy, first) in enumerate(runs):
@@ -153,28 +154,48 @@ def lines_outline(
                 and max(abs((ax - px) * dy - (ay - py) * dx), abs((bx - px) * dy - (by - py) * dx)) <= tol
             ):
                 runs[j] = (support + length, px, py, dx, dy, first)
+                s0, s1 = (ax - px) * dx + (ay - py) * dy, (bx - px) * dx + (by - py) * dy
+                spans[first].append((min(s0, s1), max(s0, s1)))
                 break
         else:
             runs.append((length, ax, ay, ux, uy, i))
+            spans[i] = [(0.0, length)]
     if len(runs) < 4:
         return None
     best_quad: NDArray[Any] | None = None
     best_support = 0.0
     # the four lines of the sides among the longest runs: the combination that covers the
-    # outline's area as a convex quad with the most support (a spike's edges can be longer)
+    # outline's area as a convex quad with the most support (a spike's edges can be longer);
+    # a run supports its side only between the side's corners (a bar's edge runs on beyond)
     for four in itertools.combinations(sorted(runs, reverse=True)[:_LINES_CONSIDERED], 4):
-        support = sum(r[0] for r in four)
-        if support <= best_support:
+        if sum(r[0] for r in four) <= best_support:
             continue
-        quad = _lines_quad(sorted(four, key=lambda r: r[5]))  # in the outline's order
+        ordered = sorted(four, key=lambda r: r[5])  # in the outline's order
+        quad = _lines_quad(ordered)
         if quad is None:
             continue
         area = abs(float(cv2.contourArea(quad)))
         if least * region <= area <= most * region:
-            best_quad, best_support = quad, support
+            support = _support_within(ordered, spans, quad.reshape(4, 2).tolist())
+            if support > best_support:
+                best_quad, best_support = quad, support
     if best_quad is None or best_support < LINES_MIN_SUPPORT * _length_in_frame(best_quad, (w, h)):
         return None
     return best_quad
+
+
+def _support_within(
+    lines: Sequence[_Run], spans: dict[int, list[tuple[float, float]]], corners: list[list[float]]
+) -> float:
+    """How much of the runs' edges lies on their sides between the quad's corners (px); side
+    ``i`` runs from corner ``i − 1`` to corner ``i`` (:func:`_lines_quad`)."""
+    total = 0.0
+    for i, (_, px, py, dx, dy, first) in enumerate(lines):
+        (ax, ay), (bx, by) = corners[i - 1], corners[i]
+        t0, t1 = (ax - px) * dx + (ay - py) * dy, (bx - px) * dx + (by - py) * dy
+        lo, hi = min(t0, t1), max(t0, t1)
+        total += sum(max(0.0, min(hi, s1) - max(lo, s0)) for s0, s1 in spans[first])
+    return total
 
 
 def _length_in_frame(quad: NDArray[Any], size: tuple[int, int]) -> float:

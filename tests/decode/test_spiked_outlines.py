@@ -78,10 +78,13 @@ def test_a_corner_cut_a_few_px_by_the_frame_is_outlined_beyond_it() -> None:
     assert quad.reshape(4, 2)[:, 1].max() > 239.5  # that corner beyond the frame
 
 
-def _hidden(rng: np.random.Generator, tag: sc.DrawableTag, case: str) -> tuple[np.ndarray, np.ndarray]:
-    """A normal tag (125–150 px, tilt ≤ 35°) hidden by a dark grey bar or corner square reaching
-    from beyond its quiet zone 6 % into the data area; its frame and data-area corners."""
-    spec = sc.posed_spec(tag, rng, rng.uniform(125, 150), rng.uniform(0, 35))
+def _hidden(
+    rng: np.random.Generator, tag: sc.DrawableTag, case: str, polarity: str = "normal"
+) -> tuple[np.ndarray, np.ndarray]:
+    """A tag (125–150 px, tilt ≤ 35°) hidden by a grey bar or corner square reaching from beyond
+    its quiet zone 6 % into the data area (dark grey on a normal tag, light grey on an inverted
+    one); its frame and data-area corners."""
+    spec = sc.posed_spec(tag, rng, rng.uniform(125, 150), rng.uniform(0, 35), polarity)  # type: ignore[arg-type]
     frame = sc.render_scene((480, 640), [spec], rng, blur=0.7, noise=2.0).image
     out = 1.55
     if case == "bar":
@@ -89,7 +92,8 @@ def _hidden(rng: np.random.Generator, tag: sc.DrawableTag, case: str) -> tuple[n
     else:
         cover = np.array([[-out, -out], [0.06, -out], [0.06, 0.06], [-out, 0.06]])
     pts = np.round(sc.project(spec.homography, cover) * 16).astype(np.int32)
-    cv2.fillPoly(frame, [pts], int(rng.integers(95, 125)), lineType=cv2.LINE_AA, shift=4)
+    grey = int(rng.integers(95, 125)) if polarity == "normal" else int(rng.integers(140, 170))
+    cv2.fillPoly(frame, [pts], grey, lineType=cv2.LINE_AA, shift=4)
     return frame, sc.project(spec.homography, _UNIT)
 
 
@@ -115,3 +119,26 @@ def test_a_dark_occluder_joined_to_the_data_area_is_cut_off_its_outline(bundled,
         assert np.abs(dets[0].corners - truth).max() < 0.02 * side
         read += 1
     assert read >= {"bar": 7, "covered corner": 6}[case]  # measured: 8 and 7
+
+
+def test_a_light_cover_over_an_inverted_corner_is_no_side(bundled) -> None:
+    """A light grey square over an inverted tag's corner opens its dark quiet zone; the white
+    data area's outline runs on along the cover's edge, a run longer than what it supports of
+    any side: a run counts only between its side's corners, and the visible sides outline the
+    data area (8 of 8 read; before: 6)."""
+    lookup, tags = bundled
+    drawable = [t for t in tags if t.k == 8 and sc.min_width_px(t.printed_mp_unit) <= 100]
+    det = Detector(lookup)
+    read = 0
+    for seed in range(8):
+        rng = np.random.default_rng(200 + seed)
+        tag = drawable[seed % len(drawable)]
+        frame, truth = _hidden(rng, tag, "covered corner", "inverted")
+        dets = det.detect(frame)
+        assert [d.lambda_text for d in dets] in ([], [tag.lambda_text])
+        if not dets:
+            continue
+        side = np.sqrt(abs(cv2.contourArea(truth.astype(np.float32))))
+        assert np.abs(dets[0].corners - truth).max() < 0.02 * side
+        read += 1
+    assert read >= 7
