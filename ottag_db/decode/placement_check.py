@@ -24,6 +24,7 @@ __all__ = [
     "CORNERS_TO_TRUST_PRINT",
     "PLACEMENT_BOUND_FACTOR",
     "PLACEMENT_MAX_UNITS",
+    "SEEN_CORNER_WEIGHT",
     "UNIT_SQUARE",
     "PlacementError",
     "apply_homography",
@@ -175,6 +176,14 @@ def placement_error(
 #: three of four where the print puts them, the fourth that is not is hidden (a finger, a
 #: frame edge), not a sign of another drawing.
 CORNERS_TO_TRUST_PRINT = 3
+#: In the fit that gives a hidden corner its printed position (:func:`printed_corners` with
+#: ``points``), a seen corner counts as this many points: it is where two sides fitted along
+#: their whole edges meet, a point where two triangle sides meet near a tip. Seen corners were
+#: measured to 0.03–0.11 % of the side (0.05–0.15 px at 110–170 px) where the points fit their
+#: realization to 0.3–0.7 px: about ten times the variance. With equal weights the hidden corners of
+#: tags with a corner covered or cut by the frame came up to 2.2 % of the side off the truth
+#: (over 160 readings), with ten times the weight up to 1.8 %.
+SEEN_CORNER_WEIGHT = 10
 
 
 def printed_corners(
@@ -237,8 +246,9 @@ def printed_corners(
         return corners, np.ones(4, dtype=bool)
     if points is not None and 0 < int(seen.sum()) < 4:
         plane = apply_homography(np.linalg.inv(affine), UNIT_SQUARE[order])  # each corner's, in the plane
-        src = np.vstack([points[0], plane[seen]]).astype(np.float32)
-        dst = np.vstack([points[1], corners[seen]]).astype(np.float32)
+        weight = SEEN_CORNER_WEIGHT  # (rows repeated: a weighted least-squares fit)
+        src = np.vstack([points[0], np.repeat(plane[seen], weight, axis=0)]).astype(np.float32)
+        dst = np.vstack([points[1], np.repeat(corners[seen], weight, axis=0)]).astype(np.float32)
         refit, _ = cv2.findHomography(src, dst, 0)
         if refit is not None:
             again = apply_homography(np.asarray(refit, dtype=np.float64), plane)
