@@ -199,7 +199,9 @@ _BLANK_TEMPLATES: dict[Polarity, _F32] = {
 }
 
 
-def align_outline(roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, inside: bool = False) -> _F64 | None:
+def align_outline(
+    roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, inside: bool = False, converge: bool = False
+) -> _F64 | None:
     """The data area's outline aligned by ECC, whatever tag it holds.
 
     The template is the printed quiet zone around a rim of the data area inside the points'
@@ -229,6 +231,9 @@ def align_outline(roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, in
         ``(4, 2)`` start corners of the data area, frame pixels, in tag order.
     inside : bool, optional
         The data area is read inside a quad of the other polarity (blank template).
+    converge : bool, optional
+        Refine an unpromising alignment to convergence too (a candidate whose sides measured
+        blurred: see :func:`align`).
 
     Returns
     -------
@@ -242,10 +247,14 @@ def align_outline(roi: _F32, origin: _F64, polarity: Polarity, corners: _F64, in
     # an unpromising alignment (see ottag_db.decode.ecc) is used where its first phase left it:
     # its correlation has settled, and the outline only starts the tags' own alignments
     found = ecc(roi, origin, template, corners, px_to_unit, mask)
+    if found is not None and converge and not found.converged:
+        found = ecc(roi, origin, template, corners, px_to_unit, mask, resume=found)
     return None if found is None else found.to_frame
 
 
-def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_polarity: Polarity) -> list[View]:
+def outline_views(
+    roi: _F32, origin: _F64, views: list[View], side: float, quad_polarity: Polarity, converge: bool = False
+) -> list[View]:
     """The candidate's views again, with corners aligned to a tag's outline.
 
     At a grazing view the contour's whole-pixel corners are off by a large part of the data
@@ -264,6 +273,8 @@ def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_
         quarter of it (+ 3 px) wandered off the quad and is dropped.
     quad_polarity : {"normal", "inverted"}
         The candidate quad's polarity.
+    converge : bool, optional
+        As in :func:`align_outline`.
 
     Returns
     -------
@@ -275,7 +286,7 @@ def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_
         first = next((v for v in views if v.polarity == polarity), None)
         if first is None:
             continue
-        to_frame = align_outline(roi, origin, polarity, first.corners, inside=polarity != quad_polarity)
+        to_frame = align_outline(roi, origin, polarity, first.corners, polarity != quad_polarity, converge)
         if to_frame is None:
             continue
         corners = apply_homography(to_frame, UNIT_SQUARE)
@@ -287,17 +298,25 @@ def outline_views(roi: _F32, origin: _F64, views: list[View], side: float, quad_
 
 
 def align(
-    roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, frame_blur: Blur | None = None
+    roi: _F32,
+    origin: _F64,
+    bank: TemplateBank,
+    row: int,
+    view: View,
+    frame_blur: Blur | None = None,
+    converge: bool = False,
 ) -> Aligned | None:
     """ECC alignment of template ``row`` to the frame from the view's corners
     (:func:`~ottag_db.decode.ecc.ecc`), judged against the tag as the camera would see it there
     (``frame_blur``: see :func:`judge`); None when ECC fails, or when its first phase stayed
-    unpromising and the tag judged there correlates under :data:`_UNREFINED_MAX_CORRELATION`."""
+    unpromising and the tag judged there correlates under :data:`_UNREFINED_MAX_CORRELATION`
+    (unless ``converge``: a candidate whose sides measured blurred, judged again with its blur
+    later, whose sharp template correlates low with it until ECC has run its course)."""
     template = fine_template(bank.triangles[row], view.polarity)
     found = ecc(roi, origin, template, view.corners, _FINE_PX_TO_UNIT)
     if found is not None and not found.converged:
         judged = judge(roi, origin, bank, row, view, found.to_frame, frame_blur)
-        if max(judged.correlation, judged.blurred_correlation) < _UNREFINED_MAX_CORRELATION:
+        if not converge and max(judged.correlation, judged.blurred_correlation) < _UNREFINED_MAX_CORRELATION:
             return None  # can neither be read nor rival a reading: counted as not aligned
         found = ecc(roi, origin, template, view.corners, _FINE_PX_TO_UNIT, resume=found)
     if found is None:

@@ -279,7 +279,7 @@ def read_model(
     views = contour_views(quad, params)
     # ECC differentiates its whole input image: it gets the neighbourhood of the quad only
     roi, origin = neighbourhood(gray, [view.corners for view in views])
-    views += outline_views(roi, origin, views, math.sqrt(quad.area), quad.polarity)
+    views += outline_views(roi, origin, views, math.sqrt(quad.area), quad.polarity, blur is not None)
     kept, rows = view_samples(gray, views)
     if not kept:
         clock.lap("model")
@@ -295,7 +295,7 @@ def read_model(
     aligned: list[Aligned] = []
     unaligned: list[float] = []  # coarse scores of candidates ECC could not align
     for row, view, score in chosen:
-        a = align(roi, origin, bank, row, view)
+        a = align(roi, origin, bank, row, view, converge=blur is not None)
         if a is None:
             unaligned.append(score)
         else:
@@ -432,7 +432,7 @@ def _challengers(
         chosen += _best_tags(bank, scores[:, own], [views[own[0]]], MODEL_CHALLENGERS, taken)
     out: list[Aligned] = []
     for row, view, _ in chosen:
-        a = align(roi, origin, bank, row, view, frame_blur)
+        a = align(roi, origin, bank, row, view, frame_blur, converge=frame_blur is not None)
         if a is not None:
             out.append(a)
     return out
