@@ -12,9 +12,10 @@ level) is the contrast times the sliver's width, whatever the blur: the width gr
 from the apex, so the line through these masses along the axis reaches zero at the apex. It
 is measured there, on the tip's axis, where the side lines tell it worst; across the axis the
 intersection of the lines stands. A drawing uniformly wider than its geometry (ink spread, a
-rasterizer that fills every pixel its edges touch) moves this apex as it moves the lines'
-intersection, by the extra width over ``2 tan(θ / 2)``: what the masses remove is the blur's
-share, which on slivers a few px wide is the larger one.
+rasterizer that fills every pixel its edges touch) moves that line's zero as it moves the
+lines' intersection, by the extra width over ``2 tan(θ / 2)``, 4 px at 7° for a quarter pixel
+on either side; its masses then start with a step at the apex, blurred along the axis, and the
+apex is where that start fits them.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import math
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from scipy.special import ndtr
 
 from ottag_db.decode.types import PointHypothesis, TriangleLines
 
@@ -39,8 +41,9 @@ TIP_MAX_ANGLE_DEG = 30.0
 #: the blur of a sharp camera (σ up to about 1.5 px in a 2× upsampled view) spreads the edge by
 #: under 3σ, so nearly all of the tip's light falls inside (the mass is then blur-invariant).
 _PAD_PX = 4.0
-#: Cross sections start this far (px) past the apex the lines put, and past the apex measured
-#: in a first pass: within 2–3σ of the apex the blur also spreads the mass along the axis.
+#: The line through the masses far from the tip takes the sections from this far (px) past the
+#: apex the lines put, and past its own zero in later passes: within 2–3σ of the apex the blur
+#: also spreads the mass along the axis (and a widened drawing's step is there, see _onset).
 _NEAR_PX = 5.0
 #: Cross-section spacing along the axis (px) and samples across each.
 _STEP_PX = 0.5
@@ -55,6 +58,20 @@ _MIN_SPAN_PX = 3.0
 #: The masses' slope must be the contrast times the width's growth the side lines give within
 #: this factor (either way): a slope far off means the window took in something else.
 _SLOPE_FACTOR = 1.5
+#: Cross sections reach this far (px) beyond the apex the lines put, so that the masses'
+#: start is seen (a tip whose lines lie outside the sliver ends short of their intersection).
+_BEYOND_PX = 6.0
+#: The start of the masses is fitted on the sections up to this far (px) past the far line's
+#: root: the blurred start (2–3σ) and a stretch of the line beyond it.
+_ONSET_REACH_PX = 15.0
+#: A drawing may be wider than its geometry by up to this much (px): a rasterizer that fills
+#: every pixel its edges touch adds half a pixel on either side, ink spread on a print a
+#: fraction of a pixel. The far line's root then lies ``width / (2 tan(θ / 2))`` before the
+#: apex; the apex is searched no farther than this widening allows.
+_MAX_WIDENING_PX = 1.0
+#: Step of that search (px) and the blurs along the axis (σ, px) it tries.
+_ONSET_STEP_PX = 0.1
+_ONSET_SIGMAS = np.array([0.4, 0.7, 1.0, 1.4, 2.0])
 
 
 def apices(img: NDArray[np.float32], tris: TriangleLines, level: float) -> dict[int, tuple[float, float]]:
@@ -104,29 +121,40 @@ def _apex(
     axis /= float(np.hypot(*axis))
     half = 0.5 * math.acos(float(np.clip(ua @ ub, -1.0, 1.0)))
     tan_half = math.tan(half)
-    across = np.array([-axis[1], axis[0]])
     reach = 0.5 * length * math.cos(half)  # the tip's half: away from the other corners
-    shift = 0.0
-    for _ in range(3):  # the later passes starts past the apex the first measured
-        start = max(shift, 0.0) + _NEAR_PX
-        s = np.arange(start, reach, _STEP_PX)
-        if len(s) < _MIN_SECTIONS:
+    s = np.arange(-_BEYOND_PX, reach, _STEP_PX)
+    masses = _masses(img, v, axis, s, tan_half, level)
+    if masses is None:
+        return None
+    mass, clean, contrast = masses
+    root = 0.0
+    slope = offset = 0.0
+    for _ in range(3):  # the later passes start past the apex the earlier one measured
+        far = clean & (s >= max(root, 0.0) + _NEAR_PX)
+        if far.sum() < _MIN_SECTIONS or np.ptp(s[far]) < _MIN_SPAN_PX:
             return None
-        fit = _masses_line(img, v, axis, across, s, tan_half, level)
-        if fit is None:
+        slope, offset = (float(x) for x in np.polyfit(s[far], mass[far], 1))
+        expected = contrast * 2.0 * tan_half
+        if not (expected / _SLOPE_FACTOR <= slope <= expected * _SLOPE_FACTOR):
             return None
-        shift = fit
-        if abs(shift) > 0.5 * reach:
+        root = -offset / slope
+        if abs(root) > 0.5 * reach:
             return None
-    return float(v[0] + shift * axis[0]), float(v[1] + shift * axis[1])
+    near = clean & (s <= root + _ONSET_REACH_PX)
+    onset = root
+    if near.sum() >= _MIN_SECTIONS:
+        onset = _onset(s[near], mass[near], slope, offset, root + _MAX_WIDENING_PX / (2.0 * tan_half))
+    return float(v[0] + onset * axis[0]), float(v[1] + onset * axis[1])
 
 
-def _masses_line(
-    img: NDArray[np.float32], v: _F64, axis: _F64, across: _F64, s: _F64, tan_half: float, level: float
-) -> float | None:
-    """Where along ``axis`` (px from ``v``) the line through the cross-section masses at ``s``
-    reaches zero; None when too few sections are clean or their slope is not the tip's."""
-    half_w = s * tan_half + _PAD_PX  # (R,)
+def _masses(
+    img: NDArray[np.float32], v: _F64, axis: _F64, s: _F64, tan_half: float, level: float
+) -> tuple[_F64, NDArray[np.bool_], float] | None:
+    """The cross-section masses at ``s`` along ``axis`` from ``v`` (grey level above the dark
+    level times px), which sections are clean (no other shape in their window) and the contrast;
+    None when the window is not darker than ``level``."""
+    across = np.array([-axis[1], axis[0]])
+    half_w = np.abs(s) * tan_half + _PAD_PX  # (R,)
     frac = np.linspace(-1.0, 1.0, _ACROSS)
     t = half_w[:, None] * frac[None, :]  # (R, A)
     grid = np.empty((len(s), _ACROSS, 2), dtype=np.float32)
@@ -139,16 +167,32 @@ def _masses_line(
     if contrast <= 0:
         return None
     clean = (ends - dark).max(axis=1) < _DARK_FRACTION * contrast
-    if clean.sum() < _MIN_SECTIONS or np.ptp(s[clean]) < _MIN_SPAN_PX:
-        return None
     # trapezoid rule across each section (spacing 2·half_w / (A − 1))
     inner = vals - dark
     mass = (inner.sum(axis=1) - 0.5 * (inner[:, 0] + inner[:, -1])) * (2.0 * half_w / (_ACROSS - 1))
-    slope, offset = np.polyfit(s[clean], mass[clean], 1)
-    expected = contrast * 2.0 * tan_half
-    if not (expected / _SLOPE_FACTOR <= slope <= expected * _SLOPE_FACTOR):
-        return None
-    return float(-offset / slope)
+    return mass, clean, contrast
+
+
+def _onset(s: _F64, mass: _F64, slope: float, offset: float, farthest: float) -> float:
+    """Where the masses ``mass`` at ``s`` start: the apex of a wedge drawn wider than its
+    geometry, blurred along the axis, whose masses far from the tip lie on ``slope · s + offset``.
+
+    Such a wedge's masses are ``slope · (s − s0) + w`` from its apex ``s0`` on (``w`` the
+    extra width times the contrast, ``offset + slope · s0`` for the far line to hold), zero
+    before; blurred by a Gaussian of ``σ`` along the axis. ``s0`` is searched from the far
+    line's root (no widening) to ``farthest`` and ``σ`` over :data:`_ONSET_SIGMAS`, least squares.
+    """
+    root = -offset / slope
+    s0 = np.arange(root, max(farthest, root) + 1e-9, _ONSET_STEP_PX)[:, None, None]  # (N, 1, 1)
+    sigma = _ONSET_SIGMAS[None, :, None]  # (1, G, 1)
+    d = s[None, None, :] - s0  # (N, 1, R)
+    z = d / sigma
+    phi = np.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
+    cdf = ndtr(z)
+    model = slope * (d * cdf + sigma * phi) + (offset + slope * s0) * cdf
+    err = ((model - mass[None, None, :]) ** 2).sum(axis=2)  # (N, G)
+    best = int(np.argmin(err.min(axis=1)))
+    return float(s0[best, 0, 0])
 
 
 def with_apices(hyp: PointHypothesis, measured: dict[int, tuple[float, float]]) -> PointHypothesis:
