@@ -133,7 +133,7 @@ def _apex(
         far = clean & (s >= max(root, 0.0) + _NEAR_PX)
         if far.sum() < _MIN_SECTIONS or np.ptp(s[far]) < _MIN_SPAN_PX:
             return None
-        slope, offset = (float(x) for x in np.polyfit(s[far], mass[far], 1))
+        slope, offset = _line_fit(s[far], mass[far])
         expected = contrast * 2.0 * tan_half
         if not (expected / _SLOPE_FACTOR <= slope <= expected * _SLOPE_FACTOR):
             return None
@@ -145,6 +145,15 @@ def _apex(
     if near.sum() >= _MIN_SECTIONS:
         onset = _onset(s[near], mass[near], slope, offset, root + _MAX_WIDENING_PX / (2.0 * tan_half))
     return float(v[0] + onset * axis[0]), float(v[1] + onset * axis[1])
+
+
+def _line_fit(x: _F64, y: _F64) -> tuple[float, float]:
+    """Slope and offset of the least-squares line through ``(x, y)`` (``np.polyfit(x, y, 1)``
+    in closed form: a tip measures three of them, and polyfit's general solver cost more than
+    the rest of the tip)."""
+    dx = x - x.mean()
+    slope = float((dx * (y - y.mean())).sum() / (dx * dx).sum())
+    return slope, float(y.mean() - slope * x.mean())
 
 
 def _masses(
