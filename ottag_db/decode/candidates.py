@@ -71,6 +71,15 @@ JOINED_QUIET_TOLERANCE = 0.3
 #: nearly edge-on blur, noise and JPEG leave specks in it: with at most 32 holes, the normal
 #: tags read on a dark frame at 86° fell from 34 to 26 of 60.
 JOINED_MAX_HOLES = 256
+#: Outlines by lines per pass (:func:`~ottag_db.decode.outlines.lines_outline`, and
+#: :func:`~ottag_db.decode.outlines.without_spikes` after it), a bound on the work per frame:
+#: at most this many regions that are no quad, or whose quad meets the frame's edge, the
+#: largest by area, are outlined so. Foliage, gravel and text hold 20–150 such regions per pass
+#: (scikit-image's photographs at 640×480), each costing 0.05–0.3 ms; a tag whose border is
+#: partly hidden is one region, as large as its data area. Occluded tags drawn on those
+#: photographs (bar and covered corner, both polarities, 110–170 px) read alike with and
+#: without the bound.
+LINES_MAX_OUTLINES = 8
 #: In the thin-quad pass, a dark region whose own outline is no quad is outlined by its convex
 #: hull when it fills at least this fraction of it (:func:`_notched_outline`). The hulls of a
 #: normal data area at 84–86° were filled 0.65–0.75 on the usual frame; those of the test
@@ -169,6 +178,8 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     if kind in ("adaptive_thin", "bright_holes") and (want_inverted if joined_inverted else want_normal):
         hulls = _joined_holes(contours, hier[0], min_len)
         outlines.extend((hull, joined_inverted, cv2.arcLength(hull, True), -1) for hull in hulls)
+    # (outline, inverted, length, first hole, its quad, outlined by lines, an opened ring)
+    shaped: list[tuple[NDArray[Any], bool, float, int, NDArray[Any] | None, bool, bool]] = []
     for c, inverted, perimeter, first_hole in outlines:
         holds_holes = first_hole >= 0
         approx = _quad_outline(c, perimeter)
@@ -181,6 +192,17 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         # inverted one, a hole itself, holds separate regions: its solidity decides below)
         opened = lines and not inverted and not holds_holes and want_inverted
         lines = lines and (inverted or holds_holes)
+        if approx is not None or lines or opened:
+            shaped.append((c, inverted, perimeter, first_hole, approx, lines, opened))
+    # outlines by lines within the pass's budget (LINES_MAX_OUTLINES): the largest regions
+    by_lines = [i for i, s in enumerate(shaped) if s[5] or s[6]]
+    if len(by_lines) > LINES_MAX_OUTLINES:
+        kept = set(sorted(by_lines, key=lambda i: -abs(cv2.contourArea(shaped[i][0])))[:LINES_MAX_OUTLINES])
+        # the others keep a quad of their own (a cut one) without lines, or are dropped
+        shaped = [
+            s if i in kept else (*s[:5], False, False) for i, s in enumerate(shaped) if i in kept or s[4] is not None
+        ]
+    for c, inverted, perimeter, first_hole, approx, lines, opened in shaped:
         if lines:
             approx = lines_outline(c, perimeter, mask.shape)
             if approx is None and not inverted:  # a bar or an occluder's edges as spikes?

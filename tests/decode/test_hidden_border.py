@@ -131,3 +131,51 @@ def test_a_corner_outside_the_frame_is_given_from_the_points(bundled) -> None:
         seen = np.array(d.corners_seen)
         assert measured is not None and np.allclose(measured[seen], d.corners[seen], atol=1e-6)
     assert tried >= 6 and read >= 3  # measured: 4 of 8
+
+
+def test_outlines_by_lines_are_bounded_per_pass(bundled, monkeypatch) -> None:
+    """A finger across a side of a tag amid 48 ragged dark blobs, each holding a bright hole
+    (regions no quad outlines, as foliage and text make them): each pass outlines at most
+    ``LINES_MAX_OUTLINES`` regions by lines (without the bound, 64), the largest: the tag is one,
+    and still reads."""
+    from ottag_db.decode import candidates
+
+    lookup, tag, spec, rng = _tag_and_side(bundled, 0, 25.0)
+    centre = sc.project(spec.homography, np.array([[0.5, 0.5]]))[0]
+    frame = sc.render_scene((480, 640), [spec], rng, blur=0.6, noise=1.5).image
+    blobs = 0
+    for y in range(30, 480, 64):
+        for x in range(30, 640, 64):
+            if np.hypot(x - centre[0], y - centre[1]) < 150:
+                continue
+            turns = np.linspace(0, 2 * np.pi, 14, endpoint=False)
+            radii = np.where(np.arange(14) % 2 == 0, 26.0, 15.0) * rng.uniform(0.8, 1.2, 14)
+            star = np.stack([x + radii * np.cos(turns), y + radii * np.sin(turns)], axis=1).astype(np.int32)
+            cv2.fillPoly(frame, [star], 40)
+            cv2.circle(frame, (x, y), 6, 220, -1)
+            blobs += 1
+    bar = np.array([[0.47, -0.9], [0.53, -0.9], [0.53, 0.06], [0.47, 0.06]])
+    pts = np.round(sc.project(spec.homography, bar) * 16).astype(np.int32)
+    cv2.fillPoly(frame, [pts], 150, lineType=cv2.LINE_AA, shift=4)
+    calls: list[int] = []
+    lines_outline = candidates.lines_outline
+
+    def counted(*args, **kwargs):  # the real outline, counted
+        calls.append(1)
+        return lines_outline(*args, **kwargs)
+
+    monkeypatch.setattr(candidates, "lines_outline", counted)
+    gray = frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+    for kind in ("adaptive", "otsu"):
+        calls.clear()
+        candidates.find_quads(gray, kind, Detector(lookup).params)
+        assert len(calls) <= candidates.LINES_MAX_OUTLINES
+    bound = candidates.LINES_MAX_OUTLINES
+    assert blobs > 2 * bound
+    monkeypatch.setattr(candidates, "LINES_MAX_OUTLINES", 10_000)
+    calls.clear()
+    candidates.find_quads(gray, "otsu", Detector(lookup).params)
+    assert len(calls) > 2 * bound  # without the bound
+    monkeypatch.undo()
+    dets = Detector(lookup).detect(frame)
+    assert [d.lambda_text for d in dets] == [tag.lambda_text]
