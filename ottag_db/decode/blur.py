@@ -8,14 +8,14 @@ Those sides measure the blur: across a step blurred by a Gaussian of σ px the g
 rises with a slope of at most ``height / (σ √(2π))``. A candidate whose sides are blurred and
 whose points did not read is read by model (:mod:`.model_match`), which compares the whole
 printed tag with the frame and does not need the tips and gaps; reading it at a coarser scale
-does not help, as the gaps shrink with the blur.
+does not help, as the gaps shrink with the blur. The blurs a tag is then drawn with are
+:mod:`.camera_blur`'s.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -28,15 +28,11 @@ __all__ = [
     "BLURRED_MAX_MISFIT",
     "BLURRED_MIN_SIGMA",
     "NOMINAL_BLURS_PX",
-    "Blur",
     "EdgeBlur",
     "edge_blur",
-    "measured_blurs",
-    "refined_blur",
 ]
 
 _F64 = NDArray[np.float64]
-_F32 = NDArray[np.float32]
 
 #: Edge blur (σ of a Gaussian, frame px) from which a candidate the points did not read is
 #: read by model. A sharp frame's sides measure 0.5–0.9 px (the lens's and the sensor's own
@@ -96,22 +92,6 @@ _ALONG = np.linspace(0.2, 0.8, 9)
 #: these when judged by model (:func:`~ottag_db.decode.model_align.judge`), and the optics'
 #: own blur under a motion blur is taken as the middle one.
 NOMINAL_BLURS_PX = (0.45, 0.7, 1.0)
-#: The motion lengths drawn, as fractions of the length the sides measure: a side's width
-#: mixes the motion with the optics' blur, which a box of the measured variance only
-#: approximates (the outline then chooses).
-_MOTION_LENGTHS = (0.7, 0.85, 1.0, 1.15, 1.3)
-#: The motion directions drawn about each one the sides give (degrees): the sides' widths
-#: place it within about 10°.
-_MOTION_TURNS = (-10.0, 0.0, 10.0)
-#: The pattern search of :func:`refined_blur`: its first steps (the factor on σ and on the
-#: motion's length, the turn of its direction in degrees), each halved when no move along it
-#: fits better, down to the last ones; at most :data:`_REFINE_EVALUATIONS` blurs drawn per start.
-_REFINE_STEPS = (1.2, 1.2, 8.0)
-_REFINE_LAST = (1.03, 1.03, 1.0)
-_REFINE_EVALUATIONS = 16
-#: The turns (degrees) of a measured motion's direction tried before the pattern search: the
-#: sides placed a 15–17 px motion up to 30° off, beyond the search's reach from one start.
-_SWEEP = tuple(float(a) for a in range(0, 180, 30))
 #: The largest move of a side onto its step's midpoint (:meth:`EdgeBlur.centred`), as a
 #: fraction of the data area's side: a threshold's outline of a data area blurred by up to
 #: 4 px lies within a few percent of it; a larger offset is a triangle's edge, not the side's.
@@ -220,195 +200,6 @@ class EdgeBlur:
         return Quad(quad.polarity, corners, area, quad.inferred)
 
 
-@dataclass(frozen=True)
-class Blur:
-    """A camera blur to draw a tag with: a Gaussian of ``sigma`` px, then (``length`` > 1) a
-    linear motion of ``length`` px along ``angle_deg`` (screen coordinates, from the x axis)."""
-
-    sigma: float
-    length: float = 0.0
-    angle_deg: float = 0.0
-
-    def apply(self, image: NDArray[np.float32]) -> NDArray[np.float32]:
-        """``image`` blurred so (float32, same shape).
-
-        Parameters
-        ----------
-        image : numpy.ndarray
-            ``(H, W)`` float32.
-
-        Returns
-        -------
-        numpy.ndarray
-        """
-        out = cv2.GaussianBlur(image, (0, 0), self.sigma)
-        if self.length > 1.0:
-            out = cv2.filter2D(out, -1, motion_kernel(self.length, self.angle_deg), borderType=cv2.BORDER_REPLICATE)
-        return np.asarray(out, dtype=np.float32)
-
-
-def motion_kernel(length: float, angle_deg: float) -> NDArray[np.float32]:
-    """A normalized kernel of a linear motion ``length`` px long along ``angle_deg``.
-
-    Parameters
-    ----------
-    length : float
-        px (> 1).
-    angle_deg : float
-        Direction of the motion, degrees from the x axis (screen coordinates).
-
-    Returns
-    -------
-    numpy.ndarray
-        Odd square float32 kernel summing to 1.
-    """
-    size = math.ceil(length) | 1
-    kernel = np.zeros((size, size), np.float32)
-    c = (size - 1) / 2
-    half = length / 2
-    dx, dy = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
-    for t in np.linspace(-half, half, 4 * size + 1):  # the segment, area-sampled
-        x, y = c + t * dx, c + t * dy
-        x0, y0 = math.floor(x), math.floor(y)
-        fx, fy = x - x0, y - y0
-        for xx, yy, w in (
-            (x0, y0, (1 - fx) * (1 - fy)),
-            (x0 + 1, y0, fx * (1 - fy)),
-            (x0, y0 + 1, (1 - fx) * fy),
-            (x0 + 1, y0 + 1, fx * fy),
-        ):
-            if 0 <= xx < size and 0 <= yy < size:
-                kernel[yy, xx] += w
-    total = float(kernel.sum())
-    return kernel / total if total > 0 else kernel
-
-
-def measured_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:
-    """The blurs a blurred candidate's sides allow, to draw a tag with when it is judged.
-
-    For a candidate whose sides measure more than the nominal blurs (:data:`NOMINAL_BLURS_PX`;
-    ``blur.largest`` above the largest) a defocus — a Gaussian of the largest
-    side's σ, a quarter less and more — and a linear motion: a motion of ``L`` px along ``m``
-    smears a side of normal ``n`` over ``L |n·m|`` px, which the steepest slope of
-    :func:`edge_blur` measures as ``σ = L |n·m| / √(2π)`` (σ² = σ₀² + L² (n·m)² / 2π, the optics'
-    blur σ₀ added), so the two pairs of opposite sides give ``L`` and ``m`` up to the mirror
-    image about a side's normal (both are drawn, each in lengths and directions about the
-    measured ones). Reading by model takes the one that fits the best aligned tag's whole view
-    (:func:`~ottag_db.decode.model_align.fit_blur`) and judges every tag with it.
-
-    Parameters
-    ----------
-    blur : EdgeBlur or None
-        The candidate's measured blur (None: not measured).
-
-    Returns
-    -------
-    tuple of Blur
-        Empty when the sides measure no more than the nominal blurs.
-    """
-    if blur is None or blur.largest <= NOMINAL_BLURS_PX[-1]:
-        return ()
-    sigma = blur.largest
-    out = [Blur(0.75 * sigma), Blur(sigma), Blur(1.25 * sigma)]
-    pairs = []
-    for i in (0, 1):  # opposite sides i, i + 2
-        values = [blur.sides[j] for j in (i, i + 2) if math.isfinite(blur.sides[j])]
-        if not values:
-            return tuple(out)
-        n = blur.normals[i] - blur.normals[i + 2]  # (outward normals of opposite sides: opposed)
-        pairs.append((math.atan2(n[1], n[0]), float(np.median(values))))
-    base = NOMINAL_BLURS_PX[1]
-    theta = np.radians(np.arange(0.0, 180.0, 1.0))
-    spread = np.array([max(s * s - base * base, 0.0) * 2 * math.pi for _, s in pairs])  # L² (n·m)²
-    cos2 = np.stack([np.cos(theta - a) ** 2 for a, _ in pairs])  # (2, angles)
-    # L² per direction by least squares over both pairs, then the direction that fits best
-    l2 = (cos2 * spread[:, None]).sum(axis=0) / np.maximum((cos2 * cos2).sum(axis=0), 1e-9)
-    resid = ((cos2 * l2[None, :] - spread[:, None]) ** 2).sum(axis=0)
-    best = int(np.argmin(resid))
-    length = math.sqrt(max(float(l2[best]), 0.0))
-    if length > 2.0:
-        angle = math.degrees(float(theta[best]))
-        mirror = (math.degrees(2 * pairs[0][0]) - angle) % 180.0  # reflected about the first normal
-        angles = [(a + turn) % 180.0 for a in dict.fromkeys((angle, mirror)) for turn in _MOTION_TURNS]
-        out += [Blur(base, f * length, a) for a in angles for f in _MOTION_LENGTHS]
-    return tuple(out)
-
-
-def refined_blur(misfit: Callable[[Blur], float], blurs: tuple[Blur, ...]) -> Blur | None:
-    """The blur that fits a candidate's view best: the best defocus and the best motion of
-    ``blurs``, each refined by a pattern search on ``misfit``, and the better of the two.
-
-    The sides measure a motion only roughly: a side's steepest slope is lowered by triangles
-    within the blur's reach of it, and its plateau is cut short by a long smear, so a motion of
-    15–17 px measured 10–14 px and up to 30° off, and the nearest measured motion (or a
-    defocus) then misfits the tag seen by 0.13–0.26 of its contrast, where the true one leaves
-    0.04–0.07 (:data:`BLURRED_MAX_MISFIT`). The motion starts from the best measured direction
-    at the measured length, swept over a half turn (:data:`_SWEEP`; a motion along the data
-    area's diagonal widens all four sides alike, as a defocus does: such sides get a motion
-    too); the search then moves σ, the length and the direction by :data:`_REFINE_STEPS`,
-    halving each step that finds nothing better, within :data:`_REFINE_EVALUATIONS` drawings.
-
-    Parameters
-    ----------
-    misfit : callable
-        A blur → how badly the tag drawn with it fits the view (smaller: better).
-    blurs : tuple of Blur
-        The measured blurs (:func:`measured_blurs`).
-
-    Returns
-    -------
-    Blur or None
-        None when ``blurs`` is empty.
-    """
-    if not blurs:
-        return None
-    cache: dict[Blur, float] = {}
-
-    def cost(blur: Blur) -> float:
-        if blur not in cache:
-            cache[blur] = misfit(blur)
-        return cache[blur]
-
-    defocus = [b for b in blurs if b.length <= 1.0]
-    motions = [b for b in blurs if b.length > 1.0]
-    if not motions and defocus:
-        # sides blurred alike: a defocus, or a motion along the data area's diagonal, which
-        # widens every side by as much (of a length the median σ gives, in any direction)
-        sigma = float(np.median([b.sigma for b in defocus]))
-        length = math.sqrt(2 * math.pi * max(sigma * sigma - NOMINAL_BLURS_PX[1] ** 2, 0.0))
-        motions = [Blur(NOMINAL_BLURS_PX[1], length, 0.0)] if length > 2.0 else []
-    starts = [min(defocus, key=cost)] if defocus else []
-    if motions:
-        # the measured directions at the measured length, then the best of them swept over a
-        # half turn (the pattern search then refines length and direction together)
-        middle = float(np.median([b.length for b in motions]))
-        first = min((b for b in motions if b.length == middle), key=cost, default=motions[0])
-        starts.append(min((replace(first, angle_deg=(first.angle_deg + a) % 180.0) for a in _SWEEP), key=cost))
-    out = []
-    for start in starts:
-        best, steps, spent = start, list(_REFINE_STEPS), 0
-        motion = start.length > 1.0
-        while spent < _REFINE_EVALUATIONS and any(steps[i] > _REFINE_LAST[i] for i in (0, 1, 2) if motion or i == 0):
-            for i in (0, 1, 2) if motion else (0,):
-                if steps[i] <= _REFINE_LAST[i]:
-                    continue
-                for sign in (1.0, -1.0):
-                    if i == 0:
-                        trial = replace(best, sigma=best.sigma * steps[0] ** sign)
-                    elif i == 1:
-                        trial = replace(best, length=best.length * steps[1] ** sign)
-                    else:
-                        trial = replace(best, angle_deg=(best.angle_deg + sign * steps[2]) % 180.0)
-                    spent += trial not in cache
-                    if cost(trial) < cost(best):
-                        best = trial
-                        break
-                else:
-                    steps[i] = 1.0 + (steps[i] - 1.0) / 2 if i < 2 else steps[i] / 2
-        out.append(best)
-    return min(out, key=cost)
-
-
 def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     """The blur of a candidate's sides: per side, σ (frame px) of the Gaussian that blurs its step so.
 
@@ -417,7 +208,7 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     from the grey where the step is steepest, its midpoint) and its steepest slope give
     ``σ = height / (slope · √(2π))``; a side's blur is the
     median of its samples (motion blur widens the sides across the motion more than the
-    others: :func:`measured_blurs` reads it from them).
+    others: :func:`~ottag_db.decode.camera_blur.measured_blurs` reads it from them).
 
     Parameters
     ----------

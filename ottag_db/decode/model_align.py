@@ -18,7 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.blur import NOMINAL_BLURS_PX, Blur, refined_blur
+from ottag_db.decode.blur import NOMINAL_BLURS_PX
+from ottag_db.decode.camera_blur import Blur, refined_blur
 from ottag_db.decode.ecc import ecc, to_roi
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
@@ -335,7 +336,7 @@ def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blur
     """The blur under which the aligned tag fits its whole view best (the quiet band, the rim
     and the triangles: a motion's direction is known from the sides only up to its mirror
     image, and only the triangles' smear tells the two apart): the best of ``blurs``, refined
-    (:func:`~ottag_db.decode.blur.refined_blur`).
+    (:func:`~ottag_db.decode.camera_blur.refined_blur`).
 
     Parameters
     ----------
@@ -346,7 +347,7 @@ def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blur
     aligned : Aligned
         The tag that best explains the candidate with the nominal blurs.
     blurs : tuple of Blur
-        The candidate's measured blurs (:func:`~ottag_db.decode.blur.measured_blurs`).
+        The candidate's measured blurs (:func:`~ottag_db.decode.camera_blur.measured_blurs`).
 
     Returns
     -------

@@ -65,11 +65,10 @@ from ottag_db.decode.blur import (
     BLURRED_MAX_MISFIT,
     BLURRED_MIN_NOMINAL_CORRELATION,
     BLURRED_MIN_SIDE,
-    Blur,
     EdgeBlur,
     edge_blur,
-    measured_blurs,
 )
+from ottag_db.decode.camera_blur import Blur, measured_blurs
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import Aligned, View, align, fit_blur, judge, neighbourhood, outline_views
 from ottag_db.decode.model_budget import coarse_samples, contour_views, view_samples

@@ -14,15 +14,8 @@ from hypothesis import strategies as st
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.core.types import Polarity
 from ottag_db.decode import Detector
-from ottag_db.decode.blur import (
-    NOMINAL_BLURS_PX,
-    Blur,
-    EdgeBlur,
-    edge_blur,
-    measured_blurs,
-    motion_kernel,
-    refined_blur,
-)
+from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur, edge_blur
+from ottag_db.decode.camera_blur import Blur, measured_blurs, motion_kernel, refined_blur
 from ottag_db.decode.types import Quad
 from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
