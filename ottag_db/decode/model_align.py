@@ -161,11 +161,15 @@ def _quiet_ring(b: float) -> _F32:
     return out
 
 
+#: The refinement templates' band of quiet zone (constant: built once at import).
+_FINE_RING = _quiet_ring(_FINE_BAND)
+
+
 def fine_template(triangles: _F64, polarity: Polarity) -> _F32:
     """The refinement template: data area with its triangles and a band of quiet zone, 0 … 1,
     bright where the print is bright."""
     b = _FINE_BAND
-    img = _quiet_ring(b)
+    img = _FINE_RING.copy()
     if len(triangles):
         img += rasterize(triangles[None], -b, 1 + b, _FINE_GRID)[0]
     out: _F32 = img if polarity == "normal" else 1.0 - img
