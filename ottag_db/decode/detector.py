@@ -39,6 +39,7 @@ from ottag_db.decode.quads import (
     around_detection,
     in_frame_corners,
     outlined_before,
+    reading_order,
     same_quad,
     same_tag,
     seen_before,
@@ -155,7 +156,8 @@ class Detector:
         Returns
         -------
         list of Detection
-            In reading order (smaller candidates first, adaptive pass before Otsu).
+            In reading order (smaller candidates first, a candidate's pieces right after it,
+            adaptive pass before Otsu).
         """
         return self._run(image, StageClock())[0]
 
@@ -224,8 +226,11 @@ class Detector:
             clock.lap("candidates")
             # read by model after the pass; a blurred one with its blur and coarse match
             by_model: list[tuple[Quad, Rejection, tuple[EdgeBlur, float, Quad] | None]] = []
-            for quad, again in sorted(zip(quads, outlined_again, strict=True), key=lambda c: c[0].area):
-                skip = around_detection(quad, detections)
+            # smallest first; a piece of a larger candidate (a triangle's outline inside its data
+            # area) after it, and not at all when that one read as a tag
+            for i, holder in reading_order(quads):
+                quad, again = quads[i], outlined_again[i]
+                skip = around_detection(quad, detections) or (holder is not None and within_detection(quad, detections))
                 clock.lap("candidates")
                 if skip:
                     continue
@@ -234,7 +239,8 @@ class Detector:
                 once = again or quad.inferred
                 result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
                 # blurred sides: the points' tips and gaps are gone at every scale (reading by model)
-                blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not once else None
+                # (an inferred one too: a long motion smears a data area's corners into no quad)
+                blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not again else None
                 if isinstance(result, Rejection) and not once and blurred is None:
                     if result.reason in _RETRY_UPSAMPLED and result.decomposed:
                         result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)

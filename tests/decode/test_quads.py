@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,6 +15,7 @@ from ottag_db.decode.quads import (
     around_detection,
     clockwise,
     outlined_before,
+    reading_order,
     same_quad,
     same_tag,
     seen_before,
@@ -83,3 +85,50 @@ def test_squeeze_is_the_singular_value_ratio_of_the_diagonals(coords: list[float
     sv = np.linalg.svd(np.stack([q[2] - q[0], q[3] - q[1]], axis=1), compute_uv=False)
     expected = sv[1] / sv[0] if sv[0] > 1e-9 else 0.0
     assert squeeze(Quad("normal", q, 1.0)) == pytest.approx(expected, abs=1e-6)
+
+
+def _square(x: float, y: float, side: float, polarity: str) -> Quad:
+    c = np.array([[x, y], [x + side, y], [x + side, y + side], [x, y + side]], dtype=np.float64)
+    return Quad(polarity, c, side * side)  # type: ignore[arg-type]
+
+
+def test_pieces_of_a_candidate_are_read_right_after_it() -> None:
+    """Smallest first, except that a piece (under a quarter of the area of a candidate of the other
+    polarity holding its centre) follows its holder, and a piece of a piece follows that; a data
+    area inside its quiet zone's outline (0.44 of its area) is no piece and is read first."""
+    quads = [
+        _square(0, 0, 100, "normal"),  # a data area
+        _square(40, 40, 20, "inverted"),  # a triangle's outline in it
+        _square(200, 0, 30, "normal"),  # elsewhere
+        _square(-25, -25, 150, "inverted"),  # the quiet zone's outline around the data area
+        _square(10, 10, 10, "inverted"),  # another triangle's outline
+        _square(45, 45, 5, "normal"),  # a speck inside the first triangle's outline
+        _square(60, 5, 10, "normal"),  # the data area's polarity: a piece of the quiet zone's outline
+    ]
+    assert reading_order(quads) == [(2, None), (0, None), (4, 0), (1, 0), (5, 1), (3, None), (6, 3)]
+    assert reading_order([]) == []
+
+
+def test_a_tags_pieces_are_not_read_once_it_reads(bundled) -> None:
+    """The outlines of a normal tag's triangles (bright holes of its data area, inverted
+    candidates) were each read and refused before the tag (smallest first): now they follow it
+    and are skipped."""
+    from ottag_db.decode import Detector
+    from ottag_db.printing import scenes as sc
+
+    lookup, tags = bundled
+    det = Detector(lookup)
+    pieces = 0
+    for seed in range(6):
+        tag = [t for t in tags if t.k == 8][seed]
+        rng = np.random.default_rng(seed)
+        spec = sc.posed_spec(tag, rng, 150.0, 20.0)
+        frame = sc.render_scene((480, 640), [spec], rng, blur=0.6, noise=1.5).image
+        dets, rejected = det.detect_with_rejections(frame)
+        assert [d.lambda_text for d in dets] == [tag.lambda_text]
+        area = abs(float(cv2.contourArea(dets[0].corners.astype(np.float32))))
+        centre = dets[0].corners.mean(axis=0)
+        for r in rejected:  # a piece of the tag: its centre inside, a fifth of its area at most
+            inside = np.linalg.norm(r.corners.mean(axis=0) - centre) < 0.5 * np.sqrt(area)
+            pieces += bool(inside and abs(float(cv2.contourArea(r.corners.astype(np.float32)))) < 0.2 * area)
+    assert pieces == 0
