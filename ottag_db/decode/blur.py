@@ -66,23 +66,29 @@ BLURRED_MAX_MISFIT = 0.12
 #: model costs 20–40 ms. Taken also from the outline moved onto the sides' blurred steps
 #: (:meth:`EdgeBlur.centred`), the better of the two.
 BLURRED_MIN_RANKING = 0.7
-#: The coarse match a blurred candidate needs when its sides' largest blur spans a whole cell of
-#: the ranking grid or more (between half a cell and a cell, the floor falls linearly from
-#: :data:`BLURRED_MIN_RANKING`): the ranking templates are sharp, and a blur of a cell mixes
-#: each cell's print with its neighbours'. Tags 98 px wide moved by 15–17 px (sides measuring
-#: σ 3.5–6 px, 0.6–1 cell) correlate 0.55–0.7 with their printed tag; the budget of readings
-#: by model still bounds what the lower floor costs on clutter.
+#: The coarse match a blurred candidate needs when its sides' largest blur spans half a cell of
+#: the ranking grid or more (between a quarter of a cell and half a cell, the floor falls
+#: linearly from :data:`BLURRED_MIN_RANKING`): the ranking templates are sharp, and a blur of
+#: half a cell (its width at half maximum, 2.35 σ, more than a cell) mixes each cell's print
+#: with its neighbours'. The sides also measure a motion short (its step is a straight ramp, and
+#: the steepest point, where the ramp's height is taken, lies anywhere along it): tags 80–100 px
+#: wide moved by 15–17 px measure σ 2.7–4.4 px (0.5–0.9 cells) and correlate 0.6–0.7 with their
+#: printed tag; the budget of readings by model still bounds what the lower floor costs on
+#: clutter.
 BLURRED_MIN_RANKING_SMEARED = 0.6
 #: The smallest correlation with the nominal drawing (the first of :data:`NOMINAL_BLURS_PX`)
 #: for which a blurred candidate's aligned tags are judged again with its measured blur: a
 #: tag defocused by up to 4 px or moved by up to 15 px still correlates 0.8–0.96 with its
-#: nominal drawing, while most blurred quads of clutter correlate less with every tag, and
-#: the judging again costs a drawing per blur and aligned tag.
-BLURRED_MIN_NOMINAL_CORRELATION = 0.75
-#: The smallest data area, in blur widths (side / σ), judged with its measured blur: an
-#: 8-point tag's narrowest triangles and gaps are about a twelfth of its side, and a blur of
-#: that width erases them, leaving nothing that tells tags apart; candidates that small are
-#: mostly pieces of a tag's own triangles.
+#: nominal drawing, one 80–90 px wide moved by 17 px 0.73–0.75, while most blurred quads of
+#: clutter correlate less with every tag, and the judging again costs a drawing per blur and
+#: aligned tag.
+BLURRED_MIN_NOMINAL_CORRELATION = 0.7
+#: The smallest data area, in blur widths (side / :attr:`EdgeBlur.width`), judged with its
+#: measured blur: an 8-point tag's narrowest triangles and gaps are about a twelfth of its side,
+#: and a blur of that width in every direction erases them, leaving nothing that tells tags
+#: apart; candidates that small are mostly pieces of a tag's own triangles. A motion erases
+#: only what lies across it (its sides along it stay sharp, and so do the triangles' edges
+#: along it), hence the width over all directions.
 BLURRED_MIN_SIDE = 12.0
 #: Samples of a side's profile: where along the side (fractions; the corners are left out,
 #: a corner's two sides bend the step there) and how far across it (px of the frame per σ
@@ -137,6 +143,16 @@ class EdgeBlur:
         return max(finite) if finite else 0.0
 
     @property
+    def width(self) -> float:
+        """The blur's root-mean-square width over directions: ``√((a² + b²) / 2)`` of the larger
+        blur of each pair of opposite sides, ``a`` and ``b`` (0.0 when a pair was not measured).
+        A defocus of σ measures σ; a linear motion of ``L`` px measures ``L / √(4π)`` whatever
+        its direction (its pairs measure ``L |n·m| / √(2π)``, and ``(n·m)²`` over two
+        perpendicular normals sums to 1), where its largest side measures up to ``L / √(2π)``."""
+        pairs = [max((s for s in self.sides[i::2] if math.isfinite(s)), default=math.nan) for i in (0, 1)]
+        return math.sqrt((pairs[0] ** 2 + pairs[1] ** 2) / 2) if all(math.isfinite(p) for p in pairs) else 0.0
+
+    @property
     def blurred(self) -> bool:
         """Whether these are a blurred tag's sides: the largest blur at least
         :data:`BLURRED_MIN_SIGMA`, every side measured, and opposite sides blurred alike
@@ -157,8 +173,8 @@ class EdgeBlur:
 
     def min_ranking(self, side: float, grid: int) -> float:
         """The coarse match a blurred candidate of this blur needs to be read by model: from
-        :data:`BLURRED_MIN_RANKING` (the largest blur within half a cell of the ranking grid)
-        down to :data:`BLURRED_MIN_RANKING_SMEARED` (a cell or more), linearly in between.
+        :data:`BLURRED_MIN_RANKING` (the largest blur within a quarter of a cell of the ranking
+        grid) down to :data:`BLURRED_MIN_RANKING_SMEARED` (half a cell or more), linearly in between.
 
         Parameters
         ----------
@@ -172,7 +188,7 @@ class EdgeBlur:
         float
         """
         cells = self.largest * grid / max(side, 1.0)
-        share = min(max(2.0 * cells - 1.0, 0.0), 1.0)  # 0 at half a cell, 1 at a whole one
+        share = min(max(4.0 * cells - 1.0, 0.0), 1.0)  # 0 at a quarter of a cell, 1 at half a cell
         return BLURRED_MIN_RANKING + share * (BLURRED_MIN_RANKING_SMEARED - BLURRED_MIN_RANKING)
 
     def centred(self, quad: Quad) -> Quad:

@@ -239,7 +239,8 @@ class Detector:
                 once = again or quad.inferred
                 result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
                 # blurred sides: the points' tips and gaps are gone at every scale (reading by model)
-                blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not once else None
+                # (an inferred one too: a long motion smears a data area's corners into no quad)
+                blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not again else None
                 if isinstance(result, Rejection) and not once and blurred is None:
                     if result.reason in _RETRY_UPSAMPLED and result.decomposed:
                         result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)

@@ -131,13 +131,14 @@ def wants_model(
         of benchmarks/decode_speed.py, 10–90 ms each by model).
     blurred : bool, optional
         A blurred tag's candidate (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`): read by model
-        at any size and view, ``"low_contrast"`` included (blur dims and merges triangles).
+        at any size and view, ``"low_contrast"`` included (blur dims and merges triangles), and
+        also when ``quad`` is inferred (a long motion smears a data area's corners).
 
     Returns
     -------
     bool
     """
-    if not params.model_match or quad.inferred:  # (an outline no quad: a hidden border, not a grazing view)
+    if not params.model_match or (quad.inferred and not blurred):  # (an outline no quad: a hidden border)
         return False
     if blurred:
         return first.reason in retry_reasons or first.reason in ("no_triangles", "low_contrast")
@@ -307,7 +308,7 @@ def read_model(
     blurred = False
     judged_blurred = (
         blur.blurred
-        and blur.largest <= math.sqrt(quad.area) / BLURRED_MIN_SIDE
+        and blur.width <= math.sqrt(quad.area) / BLURRED_MIN_SIDE
         and top.correlation >= BLURRED_MIN_NOMINAL_CORRELATION
     )
     if not _accepted(top, runner_up, params) and judged_blurred:

@@ -53,16 +53,16 @@ def test_noisy_sides_scatter_and_their_scatter_lets_a_pair_differ(printed) -> No
     assert not EdgeBlur((2.0, 0.8, 2.2, 3.4), _NORMALS, errors=(0.2, 0.05, 0.2, 0.5)).blurred
 
 
-def test_the_floor_falls_from_half_a_ranking_cell_to_a_whole_one() -> None:
+def test_the_floor_falls_from_a_quarter_of_a_ranking_cell_to_half_a_cell() -> None:
     side = 96.0
     cell = side / RANKING_GRID
 
     def floor(sigma: float) -> float:
         return EdgeBlur((sigma, sigma, sigma, sigma), _NORMALS).min_ranking(side, RANKING_GRID)
 
-    assert floor(0.5 * cell) == pytest.approx(BLURRED_MIN_RANKING)
-    assert floor(0.75 * cell) == pytest.approx((BLURRED_MIN_RANKING + BLURRED_MIN_RANKING_SMEARED) / 2)
-    assert floor(1.0 * cell) == pytest.approx(BLURRED_MIN_RANKING_SMEARED) == floor(2.0 * cell)
+    assert floor(0.1 * cell) == pytest.approx(BLURRED_MIN_RANKING) == floor(0.25 * cell)
+    assert floor(0.375 * cell) == pytest.approx((BLURRED_MIN_RANKING + BLURRED_MIN_RANKING_SMEARED) / 2)
+    assert floor(0.5 * cell) == pytest.approx(BLURRED_MIN_RANKING_SMEARED) == floor(2.0 * cell)
 
 
 @pytest.mark.parametrize("polarity", ["normal", "inverted"])
