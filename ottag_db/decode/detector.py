@@ -32,7 +32,7 @@ from ottag_db.decode.blur import BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, 
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
-from ottag_db.decode.model_budget import rank_for_model, ranking_score
+from ottag_db.decode.model_budget import rank_for_model, ranking_score, ranking_scores
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import (
@@ -268,9 +268,11 @@ class Detector:
             # ranked only when the pass's candidates outnumber its readings (a coarse match each,
             # measured already for a blurred one)
             ranked = bank is not None and len(queue) > p.model_max_reads
+            unmeasured = [q for q, _, measured in queue if measured is None]
+            coarse = iter(ranking_scores(gray, unmeasured, bank, p) if bank is not None and ranked else [])
             scores = [
-                (measured[1] if measured else ranking_score(gray, q, bank, p)) if bank is not None and ranked else 0.0
-                for q, _, measured in queue
+                (measured[1] if measured else next(coarse)) if bank is not None and ranked else 0.0
+                for _, _, measured in queue
             ]
             chosen, passed_over = rank_for_model(scores, p.model_max_reads)
             clock.lap("model")

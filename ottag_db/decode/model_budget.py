@@ -27,7 +27,7 @@ from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, squar
 from ottag_db.decode.templates import MODEL_GRID, RANKING_GRID, TemplateBank, normalized_rows
 from ottag_db.decode.types import DetectorParams, Quad
 
-__all__ = ["coarse_samples", "contour_views", "rank_for_model", "ranking_score", "view_samples"]
+__all__ = ["coarse_samples", "contour_views", "rank_for_model", "ranking_score", "ranking_scores", "view_samples"]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
@@ -178,9 +178,44 @@ def ranking_score(gray: NDArray[np.uint8], quad: Quad, bank: TemplateBank, param
     float
         In [-1, 1]; -1 when no view could be sampled.
     """
-    views = contour_views(quad, params)
-    kept, rows = view_samples(gray, views, RANKING_GRID)
-    return float((bank.ranking @ rows.T).max()) if kept else -1.0
+    return ranking_scores(gray, [quad], bank, params)[0]
+
+
+def ranking_scores(
+    gray: NDArray[np.uint8], quads: list[Quad], bank: TemplateBank, params: DetectorParams
+) -> list[float]:
+    """:func:`ranking_score` of several candidates, their views scored by one matrix product: a
+    pass over brick or foliage queues a hundred candidates, and one product with all their views
+    reads the templates once instead of once per candidate (three times less time there).
+
+    Parameters
+    ----------
+    gray : numpy.ndarray
+        ``(H, W)`` uint8 frame.
+    quads : list of Quad
+        The candidates (frame pixels).
+    bank : TemplateBank
+        The lookup's printed tags.
+    params : DetectorParams
+        ``polarities``.
+
+    Returns
+    -------
+    list of float
+        One score per candidate, as :func:`ranking_score` gives it.
+    """
+    rows: list[_F32] = []
+    owners: list[int] = []
+    for i, quad in enumerate(quads):
+        kept, sampled = view_samples(gray, contour_views(quad, params), RANKING_GRID)
+        rows.append(sampled)
+        owners += [i] * len(kept)
+    scores = [-1.0] * len(quads)
+    if owners:
+        best = (bank.ranking @ np.concatenate(rows).T).max(axis=0)
+        for i, score in zip(owners, best.tolist(), strict=True):
+            scores[i] = max(scores[i], score)
+    return scores
 
 
 def rank_for_model(scores: list[float], budget: int) -> tuple[list[int], list[int]]:

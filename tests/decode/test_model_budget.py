@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
-from ottag_db.decode.model_budget import rank_for_model
+from ottag_db.decode.candidates import find_quads
+from ottag_db.decode.model_budget import rank_for_model, ranking_score, ranking_scores
 from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
 from tests.support.grazing import printed_tags
@@ -80,3 +81,20 @@ def test_no_budget_means_no_reading_by_model(printed) -> None:
     dets, rejected = Detector(lookup, DetectorParams(model_max_reads=0)).detect_with_rejections(image)
     assert all(d.model_correlation is None for d in dets)
     assert any(_PASSED_OVER in r.detail for r in rejected)
+
+
+def test_candidates_ranked_together_score_as_one_by_one(printed) -> None:
+    """The queue of a pass is ranked by one product over all its candidates' views
+    (:func:`ranking_scores`): each candidate scores as :func:`ranking_score` scores it alone."""
+    lookup, tags = printed
+    rng = np.random.default_rng(3)
+    spec = sc.posed_spec(tags[3], rng, 98.0, 82.0, "normal")
+    image = sc.render_scene((480, 640), [spec], rng, extra=_blobs(rng), blur=0.5, noise=2.0, jpeg=90).image
+    det = Detector(lookup)
+    bank = det._bank  # the detector's templates (read only)
+    assert bank is not None
+    quads = find_quads(image, "adaptive", det.params) + find_quads(image, "otsu", det.params)
+    assert len(quads) >= 15
+    alone = [ranking_score(image, q, bank, det.params) for q in quads]
+    np.testing.assert_allclose(ranking_scores(image, quads, bank, det.params), alone, atol=1e-6)
+    assert ranking_scores(image, [], bank, det.params) == []
