@@ -195,7 +195,8 @@ def reading_order(quads: Sequence[Quad]) -> list[tuple[int, int | None]]:
         if h is not None:
             pieces[h].append(i)
     order: list[int] = []
-    stack = sorted((i for i in range(n) if holder[i] is None), key=lambda i: -areas[i])  # smallest on top
+    # smallest on top of the stack (equal areas in the pass's order, as a stable sort keeps them)
+    stack = sorted((i for i in range(n) if holder[i] is None), key=lambda i: (-areas[i], -i))
     while stack:  # each candidate, then its pieces (smallest first), then theirs
         i = stack.pop()
         order.append(i)

@@ -132,3 +132,14 @@ def test_a_tags_pieces_are_not_read_once_it_reads(bundled) -> None:
             inside = np.linalg.norm(r.corners.mean(axis=0) - centre) < 0.5 * np.sqrt(area)
             pieces += bool(inside and abs(float(cv2.contourArea(r.corners.astype(np.float32)))) < 0.2 * area)
     assert pieces == 0
+
+
+@given(st.lists(st.tuples(st.integers(0, 60), st.integers(0, 40), st.integers(2, 6), st.booleans()), max_size=25))
+def test_without_pieces_the_order_is_smallest_first_in_the_passs_order(boxes: list[tuple[int, int, int, bool]]) -> None:
+    """Candidates none of which lies inside another of the other polarity are read smallest
+    first, equal areas in the pass's order (a stable sort)."""
+    quads = [_square(10.0 * x, 10.0 * y, 4.0 * s, "normal" if n else "inverted") for x, y, s, n in boxes]
+    order = reading_order(quads)
+    if all(holder is None for _, holder in order):
+        assert [i for i, _ in order] == sorted(range(len(quads)), key=lambda i: quads[i].area)
+    assert sorted(i for i, _ in order) == list(range(len(quads)))
