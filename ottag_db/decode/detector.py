@@ -32,7 +32,7 @@ from ottag_db.decode.blur import BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, 
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
-from ottag_db.decode.model_budget import rank_for_model, ranking_score, ranking_scores
+from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_score, ranking_scores
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import (
@@ -274,7 +274,9 @@ class Detector:
                 (measured[1] if measured else next(coarse)) if bank is not None and ranked else 0.0
                 for _, _, measured in queue
             ]
-            chosen, passed_over = rank_for_model(scores, p.model_max_reads)
+            # (the outline of a blurred data area's quiet zone only after the data area)
+            last = around_blurred([q for q, _, _ in queue], [m is not None for _, _, m in queue]) if ranked else []
+            chosen, passed_over = rank_for_model(scores, p.model_max_reads, last)
             clock.lap("model")
             for i in passed_over:
                 quad, first, _ = queue[i]

@@ -18,6 +18,8 @@ its other coarse matches too (outline views, challengers, the print check).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import cv2
 import numpy as np
 from numpy.typing import NDArray
@@ -27,10 +29,25 @@ from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, squar
 from ottag_db.decode.templates import MODEL_GRID, RANKING_GRID, TemplateBank, normalized_rows
 from ottag_db.decode.types import DetectorParams, Quad
 
-__all__ = ["coarse_samples", "contour_views", "rank_for_model", "ranking_score", "ranking_scores", "view_samples"]
+__all__ = [
+    "QUIET_OUTLINE_AREA",
+    "around_blurred",
+    "coarse_samples",
+    "contour_views",
+    "rank_for_model",
+    "ranking_score",
+    "ranking_scores",
+    "view_samples",
+]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
+
+#: The range of a data area's area, as a share of the area of a candidate around it, for which
+#: that candidate is the outline of its quiet zone (:func:`around_blurred`): the printed quiet
+#: zone's outline is (1 + 2 × 0.25)² = 2.25 times the data area (a share of 0.44); a blur moves
+#: each threshold's outline by a few px (tags 80–90 px wide moved by 17 px: 0.35–0.41).
+QUIET_OUTLINE_AREA = (0.25, 0.7)
 
 
 def contour_views(quad: Quad, params: DetectorParams) -> list[View]:
@@ -218,8 +235,9 @@ def ranking_scores(
     return scores
 
 
-def rank_for_model(scores: list[float], budget: int) -> tuple[list[int], list[int]]:
-    """Which candidates are read by model: the ``budget`` best by :func:`ranking_score`.
+def rank_for_model(scores: list[float], budget: int, last: Sequence[bool] = ()) -> tuple[list[int], list[int]]:
+    """Which candidates are read by model: the ``budget`` best by :func:`ranking_score`, those
+    marked ``last`` only after all others.
 
     Parameters
     ----------
@@ -227,6 +245,9 @@ def rank_for_model(scores: list[float], budget: int) -> tuple[list[int], list[in
         One per candidate that wants a reading by model, in the detector's order.
     budget : int
         Readings by model the frame has left.
+    last : sequence of bool, optional
+        Per candidate, whether it ranks after every unmarked one (:func:`around_blurred`);
+        empty: none.
 
     Returns
     -------
@@ -236,6 +257,38 @@ def rank_for_model(scores: list[float], budget: int) -> tuple[list[int], list[in
     left : list of int
         The others (not read by model: the frame's budget went to better-scoring candidates).
     """
-    order = sorted(range(len(scores)), key=lambda i: -scores[i])
+    order = sorted(range(len(scores)), key=lambda i: (bool(last) and last[i], -scores[i]))
     chosen = set(order[: max(budget, 0)])
     return sorted(chosen), [i for i in range(len(scores)) if i not in chosen]
+
+
+def around_blurred(quads: Sequence[Quad], blurred: Sequence[bool]) -> list[bool]:
+    """Per candidate, whether it lies around a blurred candidate of the same pass
+    (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`) as the outline of that data area's quiet
+    zone: the blurred one's centre inside it, its area :data:`QUIET_OUTLINE_AREA` of this one's.
+    Such an outline reads the same tag only through its blurred quiet zone and ranks after the
+    data area itself (:func:`rank_for_model`).
+
+    Parameters
+    ----------
+    quads : sequence of Quad
+        The candidates that want a reading by model, in the detector's order.
+    blurred : sequence of bool
+        Per candidate, whether its sides measured blurred.
+
+    Returns
+    -------
+    list of bool
+    """
+    inner = [q for q, b in zip(quads, blurred, strict=True) if b]
+    out = []
+    for quad in quads:
+        contour = quad.corners.astype(np.float32).reshape(-1, 1, 2)
+        out.append(
+            any(
+                QUIET_OUTLINE_AREA[0] * quad.area <= q.area <= QUIET_OUTLINE_AREA[1] * quad.area
+                and cv2.pointPolygonTest(contour, tuple(float(v) for v in q.corners.mean(axis=0)), False) > 0
+                for q in inner
+            )
+        )
+    return out

@@ -1,6 +1,7 @@
-"""Tags moved by 17 px: a motion's blur measured as one width over all directions, and tags whose
+"""Tags moved by 17 px: a motion's blur measured as one width over all directions, tags whose
 largest side's blur passes a twelfth of their side, or whose smeared outline is no quad, read by
-model without misreading a look-alike."""
+model without misreading a look-alike, and the outline of a blurred data area's quiet zone
+ranked after the data area for the readings by model."""
 
 from __future__ import annotations
 
@@ -10,8 +11,11 @@ import numpy as np
 import pytest
 
 from ottag_db.core.lookup import MemoryLookup
+from ottag_db.core.types import Polarity
 from ottag_db.decode import Detector
 from ottag_db.decode.blur import BLURRED_MIN_SIDE, EdgeBlur
+from ottag_db.decode.model_budget import around_blurred, rank_for_model
+from ottag_db.decode.types import Quad
 from ottag_db.printing.scenes import DrawableTag
 from tests.decode.test_blur import _frame
 from tests.support.grazing import printed_tags
@@ -64,3 +68,30 @@ def test_long_motions_read_and_no_look_alike_reads_in_their_place(printed) -> No
             read.append(seed)
         assert det_without.detect(image) == []
     assert read == list(_UNREAD_BEFORE)
+
+
+def _square(centre: tuple[float, float], side: float, polarity: Polarity = "normal") -> Quad:
+    half = side / 2
+    corners = np.array(centre) + half * np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    return Quad(polarity, corners, side * side)
+
+
+def test_a_blurred_data_areas_quiet_zone_outline_ranks_after_it() -> None:
+    """A tag 82 px wide moved by 17 px: its data area (blurred, coarse match 0.655) and the
+    outlines of its quiet zone's outer edge (133 and 138 px, both polarities; 0.755 and 0.666)
+    want the pass's two readings by model; the data area gets one, the better outline the other.
+    A triangle's piece inside it (20 px) and a quad elsewhere rank by their match as before."""
+    quads = [
+        _square((300, 200), 82.0),
+        _square((301, 201), 133.0, "inverted"),
+        _square((302, 199), 138.0),
+        _square((310, 190), 20.0),
+        _square((500, 400), 60.0),
+    ]
+    blurred = [True, True, True, True, False]
+    last = around_blurred(quads, blurred)
+    assert last == [False, True, True, False, False]
+    scores = [0.655, 0.755, 0.666, 0.3, 0.2]
+    assert rank_for_model(scores[:3], 2) == ([1, 2], [0])  # the outlines take the readings
+    assert rank_for_model(scores[:3], 2, last[:3]) == ([0, 1], [2])
+    assert rank_for_model(scores, 3, last) == ([0, 3, 4], [1, 2])
