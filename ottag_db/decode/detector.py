@@ -32,7 +32,7 @@ from ottag_db.decode.blur import BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, 
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import to_gray
-from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_score, ranking_scores
+from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_scores
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import (
@@ -313,7 +313,8 @@ class Detector:
             return None
         centred = blur.centred(quad)
         outlines = (quad,) if centred is quad else (quad, centred)
-        score, best = max((ranking_score(gray, q, self._bank, self._params), i) for i, q in enumerate(outlines))
+        scores = ranking_scores(gray, list(outlines), self._bank, self._params)  # one product for both
+        score, best = max((s, i) for i, s in enumerate(scores))
         floor = blur.min_ranking(math.sqrt(quad.area), RANKING_GRID)
         return (blur, score, outlines[best]) if score >= floor else None
 

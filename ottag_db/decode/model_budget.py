@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from ottag_db.decode.model_align import INVERTED_QUIET, View
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
+from ottag_db.decode.quads import centres_inside
 from ottag_db.decode.templates import MODEL_GRID, RANKING_GRID, TemplateBank, normalized_rows
 from ottag_db.decode.types import DetectorParams, Quad
 
@@ -281,14 +282,13 @@ def around_blurred(quads: Sequence[Quad], blurred: Sequence[bool]) -> list[bool]
     list of bool
     """
     inner = [q for q, b in zip(quads, blurred, strict=True) if b]
+    inside = centres_inside(inner, quads)  # (inner, quads)
     out = []
-    for quad in quads:
-        contour = quad.corners.astype(np.float32).reshape(-1, 1, 2)
+    for j, quad in enumerate(quads):
         out.append(
             any(
-                QUIET_OUTLINE_AREA[0] * quad.area <= q.area <= QUIET_OUTLINE_AREA[1] * quad.area
-                and cv2.pointPolygonTest(contour, tuple(float(v) for v in q.corners.mean(axis=0)), False) > 0
-                for q in inner
+                QUIET_OUTLINE_AREA[0] * quad.area <= q.area <= QUIET_OUTLINE_AREA[1] * quad.area and bool(inside[i, j])
+                for i, q in enumerate(inner)
             )
         )
     return out

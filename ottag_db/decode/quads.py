@@ -15,6 +15,7 @@ from ottag_db.decode.types import Detection, DetectorParams, Quad
 __all__ = [
     "OUTLINE_MOVED_PX",
     "around_detection",
+    "centres_inside",
     "clockwise",
     "in_frame_corners",
     "outlined_before",
@@ -154,6 +155,33 @@ def outlined_before(quad: Quad, seen: list[Quad]) -> bool:
     return bool(_twins(quad, seen))
 
 
+def centres_inside(inner: Sequence[Quad], outer: Sequence[Quad]) -> NDArray[np.bool_]:
+    """Which candidates' centres lie inside which quads (on an edge counts as inside).
+
+    Parameters
+    ----------
+    inner : sequence of Quad
+        The candidates whose centres (the mean of their corners) are tested.
+    outer : sequence of Quad
+        The convex quads tested against.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(len(inner), len(outer))`` bool.
+    """
+    if not inner or not outer:
+        return np.zeros((len(inner), len(outer)), dtype=bool)
+    centres = np.stack([q.corners for q in inner]).mean(axis=1)  # (m, 2)
+    corners = np.stack([q.corners for q in outer])  # (n, 4, 2)
+    edges = np.roll(corners, -1, axis=1) - corners
+    # the side of each edge of quad j that the centre of candidate i lies on: (i, j, 4)
+    rel = centres[:, None, None, :] - corners[None, :, :, :]
+    cross = edges[None, :, :, 0] * rel[..., 1] - edges[None, :, :, 1] * rel[..., 0]
+    inside: NDArray[np.bool_] = (cross >= 0).all(axis=2) | (cross <= 0).all(axis=2)
+    return inside
+
+
 def reading_order(quads: Sequence[Quad]) -> list[tuple[int, int | None]]:
     """The order in which a pass reads its candidates: smallest first (so that the outline of a
     decoded tag's quiet zone is skipped, :func:`around_detection`), except that a piece of a
@@ -175,14 +203,8 @@ def reading_order(quads: Sequence[Quad]) -> list[tuple[int, int | None]]:
     n = len(quads)
     if n == 0:
         return []
-    corners = np.stack([q.corners for q in quads])  # (n, 4, 2)
     areas = np.array([q.area for q in quads])
-    centres = corners.mean(axis=1)
-    edges = np.roll(corners, -1, axis=1) - corners  # (n, 4, 2)
-    # the side of each edge of quad j that the centre of quad i lies on: (i, j, 4)
-    rel = centres[:, None, None, :] - corners[None, :, :, :]
-    cross = edges[None, :, :, 0] * rel[..., 1] - edges[None, :, :, 1] * rel[..., 0]
-    inside = (cross >= 0).all(axis=2) | (cross <= 0).all(axis=2)
+    inside = centres_inside(quads, quads)
     normal = np.array([q.polarity == "normal" for q in quads])
     holds = inside & (normal[:, None] != normal[None, :]) & (areas[:, None] < NESTED_MAX_AREA * areas[None, :])
     holder: list[int | None] = []
