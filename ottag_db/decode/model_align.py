@@ -367,8 +367,16 @@ def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blur
     drawn = _drawn(roi, origin, bank, aligned.row, aligned.view, aligned.to_frame)
 
     def residual(kind: Blur) -> float:
-        view = cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE)
-        return _contrast_residual(np.asarray(view, np.float32).ravel(), seen.ravel())
+        # in the view's own grey levels, the same for every blur tried: in units of each
+        # drawing's fitted scale, a blurrier drawing (of less variance, so fitted with a larger
+        # scale) divides the sensor noise's share of the residual by more, and the fit drifted
+        # to blurs a fifth too large in a dim frame (contrast a quarter, noise σ 6), where the
+        # tag seen then misfit its drawing by half as much again
+        view = np.asarray(
+            cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE), np.float32
+        ).ravel()
+        scale, offset = _contrast_fit(view, seen.ravel())
+        return float(np.abs(seen.ravel() - (scale * view + offset)).mean())
 
     return refined_blur(residual, blurs)
 
