@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.image import frame_has_contrast
+from ottag_db.decode.image import DIM_SMOOTHING_PX, frame_departure, threshold_offset
 from ottag_db.decode.outlines import (
     SPIKE_MAX_HOLES,
     at_frame_edge,
@@ -38,7 +38,7 @@ _F64 = NDArray[np.float64]
 
 #: How a frame is binarized for the quad search: local mean or global Otsu threshold (see
 #: :func:`find_quads`).
-Binarization = Literal["adaptive", "otsu", "adaptive_thin", "bright_holes"]
+Binarization = Literal["adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes"]
 
 #: The half-resolution candidate search is used only while the smallest data area keeps at
 #: least this side (px) there.
@@ -91,7 +91,9 @@ NOTCHED_MIN_FILL = 0.6
 _QUIET_OUTLINE = (UNIT_SQUARE - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
 
 
-def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams) -> list[Quad]:
+def find_quads(
+    gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams, departure: float | None = None
+) -> list[Quad]:
     """Convex quadrilateral contours of one binarization of ``gray``, largest first.
 
     Outer contours of dark regions are candidate *normal* data areas, hole contours (bright
@@ -102,12 +104,15 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     ----------
     gray : numpy.ndarray
         ``(H, W)`` uint8 frame.
-    kind : {"adaptive", "otsu", "adaptive_thin", "bright_holes"}
-        Local mean thresholding (at half resolution when :func:`searches_at_half_resolution`),
-        global Otsu, or local mean thresholding at full resolution keeping only the thin quads
-        (area over longest side under ``2 · HALF_RES_MIN_SIDE``) a half-resolution search
-        cannot see; ``"bright_holes"``: the pixels brighter than their local mean at full
-        resolution, keeping the foreshortened quads (:func:`~ottag_db.decode.quads.squeeze` at most
+    kind : {"adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes"}
+        Local mean thresholding (at half resolution when :func:`searches_at_half_resolution`);
+        ``"adaptive_dim"`` the same with the offset lowered for a dim frame
+        (:func:`~ottag_db.decode.image.threshold_offset`) on the search smoothed first
+        (:data:`~ottag_db.decode.image.DIM_SMOOTHING_PX`); global Otsu; or local mean
+        thresholding at full resolution keeping only the thin quads (area over longest side
+        under ``2 · HALF_RES_MIN_SIDE``) a half-resolution search cannot see;
+        ``"bright_holes"``: the pixels brighter than their local mean at full resolution,
+        keeping the foreshortened quads (:func:`~ottag_db.decode.quads.squeeze` at most
         ``rectify_max_ratio``) of their holes. Nearly edge-on, a normal data area's dark outline
         breaks where its bright triangles blur into the quiet zone, while the inverted one's
         is a hole in the dark quiet zone whatever its triangles do; this pass finds the normal
@@ -118,6 +123,11 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         (:func:`_notched_outline`).
     params : DetectorParams
         Uses the binarization, polarity, size and ``max_candidates`` settings.
+    departure : float, optional
+        The frame's largest departure (:func:`~ottag_db.decode.image.frame_departure`; measured
+        here when not given): the Otsu pass runs only when it reaches ``min_contrast`` (see
+        :func:`~ottag_db.decode.image.frame_has_contrast`), and it sets the ``"adaptive_dim"``
+        pass's offset.
 
     Returns
     -------
@@ -133,19 +143,23 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
     # pixels 2u, 2u + 1: centre 2u + 0.5) and their sides are refined on the full image.
     f = 1
     block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)  # local mean window (px)
+    departure = frame_departure(gray) if departure is None else departure
+    offset = threshold_offset(departure, p.adaptive_c) if kind == "adaptive_dim" else p.adaptive_c
     if kind == "otsu":
-        if not frame_has_contrast(gray, p.min_contrast):  # judged on the frame reduced 4x
+        if departure < p.min_contrast:  # (see image.frame_has_contrast)
             return []  # (the mask below keeps OpenCV's threshold of the whole frame)
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
     elif kind == "bright_holes":
         mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
     else:
         src: NDArray[Any] = gray
-        if kind == "adaptive" and searches_at_half_resolution(gray.shape, p):
+        if kind in ("adaptive", "adaptive_dim") and searches_at_half_resolution(gray.shape, p):
             f = 2
             src = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
             block = max(7, (block // 2) | 1)
-        mask = cv2.adaptiveThreshold(src, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, p.adaptive_c)
+        if kind == "adaptive_dim":  # a dim frame: its sensor noise nears the lowered offset
+            src = cv2.GaussianBlur(src, (0, 0), DIM_SMOOTHING_PX)
+        mask = cv2.adaptiveThreshold(src, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, offset)
     want_normal = "normal" in p.polarities
     want_inverted = "inverted" in p.polarities
     min_len = 4 * p.min_quad_side_px / f
@@ -170,7 +184,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
         outlines.append((c, inverted, len(c), int(hier[0][i][2])))
-    if kind == "adaptive" and want_inverted and p.outline_by_lines:  # (half resolution: cheap)
+    if kind in ("adaptive", "adaptive_dim") and want_inverted and p.outline_by_lines:  # (half resolution)
         outlines.extend((c, True, len(c), -1) for c in holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
@@ -186,7 +200,7 @@ def find_quads(gray: NDArray[np.uint8], kind: Binarization, params: DetectorPara
         if approx is None and kind == "adaptive_thin" and not inverted:
             approx = _notched_outline(c)
         cut = approx is not None and at_frame_edge(approx, mask.shape)  # a corner beyond it?
-        lines = p.outline_by_lines and (approx is None or cut) and kind in ("adaptive", "otsu")
+        lines = p.outline_by_lines and (approx is None or cut) and kind in ("adaptive", "adaptive_dim", "otsu")
         lines = lines and perimeter >= 2 * min_len
         # triangles first: only a dark region holding bright holes is a normal data area (an
         # inverted one, a hole itself, holds separate regions: its solidity decides below)

@@ -31,7 +31,7 @@ from ottag_db.core.lookup import TagLookup
 from ottag_db.decode.blur import BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, edge_blur
 from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
 from ottag_db.decode.identify import Catalogue
-from ottag_db.decode.image import to_gray
+from ottag_db.decode.image import frame_departure, threshold_offset, to_gray
 from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_scores
 from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
@@ -193,8 +193,11 @@ class Detector:
             return detections, rejected
         p = self._params
         passes: list[Binarization] = []
+        departure = frame_departure(gray)  # how far the frame departs from its surroundings
         if p.use_adaptive:
             passes.append("adaptive")
+        if p.use_adaptive and threshold_offset(departure, p.adaptive_c) < p.adaptive_c:
+            passes.append("adaptive_dim")  # a dim frame: a dim data area's outline breaks at the full offset
         if p.use_otsu:
             passes.append("otsu")
         if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
@@ -213,7 +216,7 @@ class Detector:
             edge_on = kind in ("adaptive_thin", "bright_holes")
             if edge_on and detections:
                 break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
-            quads = [q for q in find_quads(gray, kind, p) if not seen_before(q, seen, p.rectify_max_ratio)]
+            quads = [q for q in find_quads(gray, kind, p, departure) if not seen_before(q, seen, p.rectify_max_ratio)]
             # A foreshortened data area outlined anew (kept by seen_before) is read again by model
             # only (its first decomposition; no alternatives, upsampled or rectified reading): its
             # new corners can rank the tag seen first there. On 2,000 grazing frames (78-86 deg,

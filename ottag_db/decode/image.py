@@ -11,7 +11,35 @@ from numpy.typing import NDArray
 
 from ottag_db.errors import DecodeError
 
-__all__ = ["OtsuSplit", "frame_has_contrast", "otsu", "to_gray"]
+__all__ = [
+    "DIM_OFFSET_FRACTION",
+    "DIM_OFFSET_MIN",
+    "DIM_SMOOTHING_PX",
+    "OtsuSplit",
+    "frame_departure",
+    "frame_has_contrast",
+    "otsu",
+    "threshold_offset",
+    "to_gray",
+]
+
+#: The local threshold's offset in a dim frame, as a fraction of the frame's largest departure
+#: (:func:`frame_departure`): a pixel is dark when it lies this far under its local mean, and
+#: where the window straddles a data area's side that mean lies about halfway between the data
+#: area and its quiet zone. A dim tag (18–23 grey levels between them, its frame's departure
+#: 18) under sensor noise (σ 6) kept under the full offset of 7 only a broken rim of its
+#: outline, and no candidate; at 4 the outline closes. Frames whose departure reaches 35 keep
+#: the full offset (``DetectorParams.adaptive_c``).
+DIM_OFFSET_FRACTION = 0.2
+#: The least offset of the local threshold (grey levels), in the half-resolution search
+#: smoothed by :data:`DIM_SMOOTHING_PX`.
+DIM_OFFSET_MIN = 4.0
+#: The Gaussian (σ, px of the searched image) that smooths a dim frame's local-threshold search
+#: (the offset lowered by :func:`threshold_offset`): sensor noise of σ 6 is σ 3 at half
+#: resolution, and under an offset of 4 it marked a tenth of a plain wall's pixels dark, specks
+#: whose tracing took 25–40 ms more per frame; smoothed so, the noise is about σ 1.2, while the
+#: outline of a data area 25 px wide there keeps its corners.
+DIM_SMOOTHING_PX = 1.0
 
 
 def to_gray(image: object) -> NDArray[np.uint8]:
@@ -120,6 +148,50 @@ def otsu(hist: NDArray[Any]) -> OtsuSplit | None:
     return OtsuSplit(t, s0t / w0t, (s_all - s0t) / (total - w0t))
 
 
+def frame_departure(gray: NDArray[np.uint8]) -> float:
+    """The largest departure of the frame from its surroundings (grey levels).
+
+    Judged on the frame reduced 4× by area (sensor noise averages out) against its local mean
+    over 9 × 9 of those pixels (a light gradient cancels): the largest difference.
+
+    Parameters
+    ----------
+    gray : numpy.ndarray
+        ``(H, W)`` uint8 frame.
+
+    Returns
+    -------
+    float
+        Grey levels: under 10 on blank frames with noise σ up to 8, over 100 around a tag 18 px
+        wide in good light, 18 around a tag 55 px wide in dim light (contrast a quarter).
+    """
+    h, w = gray.shape
+    small = cv2.resize(gray, (max(w // 4, 1), max(h // 4, 1)), interpolation=cv2.INTER_AREA)
+    departure = cv2.absdiff(small, cv2.blur(small, (9, 9)))
+    return float(cv2.minMaxLoc(departure)[1])
+
+
+def threshold_offset(departure: float, adaptive_c: float) -> float:
+    """The local threshold's offset for a frame of this departure (grey levels).
+
+    ``adaptive_c``, or in a dim frame :data:`DIM_OFFSET_FRACTION` of its departure
+    (:func:`frame_departure`), not under :data:`DIM_OFFSET_MIN`.
+
+    Parameters
+    ----------
+    departure : float
+        The frame's largest departure (:func:`frame_departure`).
+    adaptive_c : float
+        The offset in a frame of full contrast (``DetectorParams.adaptive_c``).
+
+    Returns
+    -------
+    float
+        Grey levels, at most ``adaptive_c``.
+    """
+    return min(adaptive_c, max(DIM_OFFSET_MIN, DIM_OFFSET_FRACTION * departure))
+
+
 def frame_has_contrast(gray: NDArray[np.uint8], min_contrast: float) -> bool:
     """Whether some part of the frame departs from its surroundings by ``min_contrast`` grey levels.
 
@@ -146,7 +218,4 @@ def frame_has_contrast(gray: NDArray[np.uint8], min_contrast: float) -> bool:
     bool
         False when nothing departs that far (the global threshold would outline noise).
     """
-    h, w = gray.shape
-    small = cv2.resize(gray, (max(w // 4, 1), max(h // 4, 1)), interpolation=cv2.INTER_AREA)
-    departure = cv2.absdiff(small, cv2.blur(small, (9, 9)))
-    return float(cv2.minMaxLoc(departure)[1]) >= min_contrast
+    return frame_departure(gray) >= min_contrast

@@ -187,10 +187,10 @@ class DetectorParams:
     Candidate search:
 
     - ``use_adaptive`` / ``use_otsu``: binarizations searched for data areas: local mean
-      thresholding (window ``adaptive_block`` px, odd, 0 = automatic: about 1/16 of the
-      shorter image side, at least 15; offset ``adaptive_c`` grey levels), then global Otsu
-      for quads the first pass did not give; the Otsu pass runs only when the adaptive pass
-      decoded nothing, unless ``otsu_always`` (costs one more contour pass per frame);
+      thresholding (window ``adaptive_block`` px, odd, 0 = automatic: about 1/16 of the shorter
+      image side, at least 15; offset ``adaptive_c`` grey levels, less in a dim frame:
+      :func:`~ottag_db.decode.image.threshold_offset`), then global Otsu for quads the first pass
+      did not give, only when the adaptive pass decoded nothing, unless ``otsu_always``;
     - ``polarities``: which tag polarities to look for (a tuple; one name is accepted too);
     - ``min_quad_area_px``: smallest data-area area (px²; 256: a 21 cm tag at 8 m with f = 700
       px is 18 px wide, and such small data areas are read by model); ``min_quad_side_px``:

@@ -9,6 +9,7 @@ import pytest
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams, candidates
 from ottag_db.decode.candidates import find_quads
+from ottag_db.decode.image import DIM_OFFSET_MIN, frame_departure, threshold_offset
 from ottag_db.decode.quads import clockwise, squeeze
 from ottag_db.decode.types import Quad
 from ottag_db.printing import scenes as sc
@@ -128,3 +129,35 @@ def test_a_small_data_area_lost_at_half_resolution_is_outlined_by_the_full_resol
     truth = sc.project(spec.homography, np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]))
     assert _corner_miss(quad, truth) < 2.0
     assert [d.lambda_text for d in Detector(lookup).detect(image)] == [tag.lambda_text]
+
+
+def test_a_dim_frame_is_searched_again_at_a_lowered_offset(bundled_db_path) -> None:
+    """Dim tags (their contrast an eighth of the print's, about 20 grey levels; defocused by
+    2.5 px, noise σ 6) in a dim frame: the local threshold's offset lowered with the frame's
+    departure (the ``"adaptive_dim"`` pass, on the search smoothed) outlines 10 or more of 12
+    data areas, the full offset of 7 grey levels (``"adaptive"``) at most 4; a plain wall with
+    the same noise gives no candidate in any pass."""
+    _, tags = printed_tags(bundled_db_path)
+    p = DetectorParams()
+    unit = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    lowered = full = 0
+    for seed in range(30, 42):
+        rng = np.random.default_rng(seed)
+        spec = sc.posed_spec(tags[seed % len(tags)], rng, 70.0, float(rng.uniform(0, 40)), "normal")
+        image = sc.render_scene((480, 640), [spec], rng, blur=2.5).image.astype(np.float64)
+        image = image.mean() + 0.12 * (image - image.mean()) + rng.normal(0, 6.0, image.shape)
+        gray = np.clip(np.rint(image), 0, 255).astype(np.uint8)
+        centre = sc.project(spec.homography, unit).mean(axis=0)
+        departure = frame_departure(gray)
+        assert threshold_offset(departure, p.adaptive_c) == DIM_OFFSET_MIN
+
+        def outlined(kind: str, gray: np.ndarray = gray, centre: np.ndarray = centre, dep: float = departure) -> bool:
+            quads = find_quads(gray, kind, p, dep)  # type: ignore[arg-type]
+            return any(np.linalg.norm(q.corners.mean(axis=0) - centre) < 5 for q in quads if q.polarity == "normal")
+
+        lowered += outlined("adaptive_dim")
+        full += outlined("adaptive")
+    assert lowered >= 10 and full <= 4, (lowered, full)
+    wall = np.clip(np.rint(np.random.default_rng(0).normal(110.0, 6.0, (480, 640))), 0, 255).astype(np.uint8)
+    kinds = ("adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes")
+    assert all(find_quads(wall, kind, p) == [] for kind in kinds)  # type: ignore[arg-type]
