@@ -125,7 +125,7 @@ def find_quads(
         Uses the binarization, polarity, size and ``max_candidates`` settings.
     departure : float, optional
         The frame's largest departure (:func:`~ottag_db.decode.image.frame_departure`; measured
-        here when not given): the Otsu pass runs only when it reaches ``min_contrast`` (see
+        here for the passes that need it when not given): the Otsu pass runs only when it reaches ``min_contrast`` (see
         :func:`~ottag_db.decode.image.frame_has_contrast`), and it sets the ``"adaptive_dim"``
         pass's offset.
 
@@ -143,10 +143,11 @@ def find_quads(
     # pixels 2u, 2u + 1: centre 2u + 0.5) and their sides are refined on the full image.
     f = 1
     block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)  # local mean window (px)
-    departure = frame_departure(gray) if departure is None else departure
-    offset = threshold_offset(departure, p.adaptive_c) if kind == "adaptive_dim" else p.adaptive_c
+    if departure is None and kind in ("adaptive_dim", "otsu"):
+        departure = frame_departure(gray)
+    offset = p.adaptive_c if departure is None or kind != "adaptive_dim" else threshold_offset(departure, p.adaptive_c)
     if kind == "otsu":
-        if departure < p.min_contrast:  # (see image.frame_has_contrast)
+        if departure is not None and departure < p.min_contrast:  # (see image.frame_has_contrast)
             return []  # (the mask below keeps OpenCV's threshold of the whole frame)
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
     elif kind == "bright_holes":

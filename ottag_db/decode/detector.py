@@ -193,11 +193,8 @@ class Detector:
             return detections, rejected
         p = self._params
         passes: list[Binarization] = []
-        departure = frame_departure(gray)  # how far the frame departs from its surroundings
         if p.use_adaptive:
-            passes.append("adaptive")
-        if p.use_adaptive and threshold_offset(departure, p.adaptive_c) < p.adaptive_c:
-            passes.append("adaptive_dim")  # a dim frame: a dim data area's outline breaks at the full offset
+            passes += ["adaptive", "adaptive_dim"]
         if p.use_otsu:
             passes.append("otsu")
         if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
@@ -210,12 +207,19 @@ class Detector:
         # local threshold's outline (a look-alike, ρ 0.926, next 0.922); Otsu's outline then
         # read another look-alike unrivalled (ρ 0.933), now rivalled by the first.
         guesses: list[tuple[Quad, ModelGuess]] = []
+        departure: float | None = None
         for kind in passes:
             if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
                 break  # the global threshold is the fallback of the local one
             edge_on = kind in ("adaptive_thin", "bright_holes")
             if edge_on and detections:
                 break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
+            if kind in ("adaptive_dim", "otsu") and not detections:  # (measured once, when needed)
+                departure = frame_departure(gray) if departure is None else departure
+                if kind == "adaptive_dim" and threshold_offset(departure, p.adaptive_c) >= p.adaptive_c:
+                    continue  # not a dim frame
+            elif kind == "adaptive_dim":
+                continue  # the local threshold again, in a dim frame that read nothing
             quads = [q for q in find_quads(gray, kind, p, departure) if not seen_before(q, seen, p.rectify_max_ratio)]
             # A foreshortened data area outlined anew (kept by seen_before) is read again by model
             # only (its first decomposition; no alternatives, upsampled or rectified reading): its
