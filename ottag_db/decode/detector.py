@@ -194,9 +194,11 @@ class Detector:
         p = self._params
         passes: list[Binarization] = []
         if p.use_adaptive:
-            passes += ["adaptive", "adaptive_dim"]
+            passes.append("adaptive")
         if p.use_otsu:
             passes.append("otsu")
+        if p.use_adaptive:  # after Otsu's: its outlines, seen first, would stand in for Otsu's
+            passes.append("adaptive_dim")
         if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
             passes.append("adaptive_thin")
         if p.use_adaptive and "normal" in p.polarities:
