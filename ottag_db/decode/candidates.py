@@ -125,9 +125,9 @@ def find_quads(
         Uses the binarization, polarity, size and ``max_candidates`` settings.
     departure : float, optional
         The frame's largest departure (:func:`~ottag_db.decode.image.frame_departure`; measured
-        here for the passes that need it when not given): the Otsu pass runs only when it reaches ``min_contrast`` (see
-        :func:`~ottag_db.decode.image.frame_has_contrast`), and it sets the ``"adaptive_dim"``
-        pass's offset.
+        here for the passes that need it when not given): the Otsu pass runs only when it
+        reaches ``min_contrast`` (see :func:`~ottag_db.decode.image.frame_has_contrast`), and it
+        sets the ``"adaptive_dim"`` pass's offset.
 
     Returns
     -------
