@@ -135,7 +135,7 @@ class EdgeBlur:
         the side; NaN where the side's blur is.
     errors : tuple of float
         Per side, the standard error (frame px) of its blur, from the scatter of its samples
-        (1.25 × 1.48 × their median absolute deviation / √count); NaN where the side's blur is.
+        (1.25 × their interquartile range / 1.35 / √count); NaN where the side's blur is.
     """
 
     sides: tuple[float, ...]
@@ -226,12 +226,13 @@ class EdgeBlur:
 def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     """The blur of a candidate's sides: per side, σ (frame px) of the Gaussian that blurs its step so.
 
-    Each side is sampled across at nine places between 20 % and 80 % of its length; at each,
-    the step's height (twice the distance of the outer third's median grey, the quiet zone,
-    from the grey where the step is steepest, its midpoint) and its steepest slope give
-    ``σ = height / (slope · √(2π))``; a side's blur is the
-    median of its samples (motion blur widens the sides across the motion more than the
-    others: :func:`~ottag_db.decode.camera_blur.measured_blurs` reads it from them).
+    Each side is sampled across at nine places between 20 % and 80 % of its length (each the
+    mean of parallel profiles along the side, :data:`_ALONG_SPREAD`); at each, the step's
+    height (twice the distance of the outer third's median grey, the quiet zone, from the grey
+    where the step is steepest, its midpoint) and its steepest slope give
+    ``σ = height / (slope · √(2π))``; a side's blur is the median of its samples (motion blur
+    widens the sides across the motion more than the others:
+    :func:`~ottag_db.decode.camera_blur.measured_blurs` reads it from them).
 
     Parameters
     ----------
