@@ -287,13 +287,12 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     sigma = np.where((height >= 20) & (slope > 0), sigma, np.nan).reshape(4, len(_ALONG))
     count = np.isfinite(sigma).sum(axis=1)
     valid = (count >= len(_ALONG) // 2) & (length >= 4)
-    per_side = np.where(valid, _finite_medians(sigma, count), np.nan)
+    ordered = np.sort(sigma, axis=1)  # (NaN last) for the median and the quartiles
+    per_side = np.where(valid, _sorted_medians(ordered, count), np.nan)
     # each side's standard error from its samples' interquartile range (as the median absolute
     # deviation for a normal scatter; but also wide where a motion smears a triangle near the
     # side across half of it: 5 samples measured 9 px, 4 measured 3 px, as the opposite side)
-    ordered = np.sort(sigma, axis=1)
-    quartiles = [np.clip(np.rint(f * (count - 1)).astype(np.int64), 0, len(_ALONG) - 1) for f in (0.25, 0.75)]
-    low, high = (np.take_along_axis(ordered, q[:, None], axis=1)[:, 0] for q in quartiles)
+    low, high = (_at_rank(ordered, np.rint(f * (count - 1)).astype(np.int64)) for f in (0.25, 0.75))
     errors = np.where(valid, 1.2533 * (high - low) / 1.349 / np.sqrt(np.maximum(count, 1)), np.nan)
     # the step's midpoint: the steepest point's median position across the side
     where = np.where(np.isfinite(sigma.ravel()), across[steepest] + _ACROSS_STEP / 2, np.nan).reshape(4, len(_ALONG))
@@ -310,9 +309,19 @@ def _finite_medians(values: _F64, count: NDArray[np.int64]) -> _F64:
     """Each row's median over its ``count`` finite values, in one sort (NaN sorts last; as
     ``np.nanmedian`` gives it, without its masked arrays, which cost more than the rest of
     :func:`edge_blur`); NaN for a row without finite values."""
-    ordered = np.sort(values, axis=1)
-    last = values.shape[1] - 1
-    low = np.take_along_axis(ordered, np.maximum((count - 1) // 2, 0)[:, None], axis=1)[:, 0]
-    high = np.take_along_axis(ordered, np.minimum(count // 2, last)[:, None], axis=1)[:, 0]
+    return _sorted_medians(np.sort(values, axis=1), count)
+
+
+def _sorted_medians(ordered: _F64, count: NDArray[np.int64]) -> _F64:
+    """:func:`_finite_medians` of rows already sorted (NaN last)."""
+    low = _at_rank(ordered, (count - 1) // 2)
+    high = _at_rank(ordered, count // 2)
     out: _F64 = np.where(count % 2 == 1, low, (low + high) / 2)
+    return out
+
+
+def _at_rank(ordered: _F64, rank: NDArray[np.int64]) -> _F64:
+    """Each sorted row's value at its ``rank`` (clipped to the row)."""
+    at = np.clip(rank, 0, ordered.shape[1] - 1)[:, None]
+    out: _F64 = np.take_along_axis(ordered, at, axis=1)[:, 0]
     return out

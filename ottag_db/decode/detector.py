@@ -216,12 +216,12 @@ class Detector:
             edge_on = kind in ("adaptive_thin", "bright_holes")
             if edge_on and detections:
                 break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
-            if kind in ("adaptive_dim", "otsu") and not detections:  # (measured once, when needed)
-                departure = frame_departure(gray) if departure is None else departure
+            if kind == "adaptive_dim" and detections:
+                continue  # the local threshold again, in a dim frame that read nothing
+            if kind in ("adaptive_dim", "otsu"):  # how far the frame departs from its surroundings
+                departure = frame_departure(gray) if departure is None else departure  # (measured once)
                 if kind == "adaptive_dim" and threshold_offset(departure, p.adaptive_c) >= p.adaptive_c:
                     continue  # not a dim frame
-            elif kind == "adaptive_dim":
-                continue  # the local threshold again, in a dim frame that read nothing
             quads = [q for q in find_quads(gray, kind, p, departure) if not seen_before(q, seen, p.rectify_max_ratio)]
             # A foreshortened data area outlined anew (kept by seen_before) is read again by model
             # only (its first decomposition; no alternatives, upsampled or rectified reading): its
