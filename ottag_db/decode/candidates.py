@@ -36,9 +36,9 @@ __all__ = [
 
 _F64 = NDArray[np.float64]
 
-#: How a frame is binarized for the quad search: local mean or global Otsu threshold (see
-#: :func:`find_quads`).
-Binarization = Literal["adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes"]
+#: How a frame is binarized for the quad search: local mean, global Otsu or local range
+#: threshold (see :func:`find_quads`).
+Binarization = Literal["adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes", "local_range"]
 
 #: The half-resolution candidate search is used only while the smallest data area keeps at
 #: least this side (px) there.
@@ -87,8 +87,17 @@ LINES_MAX_OUTLINES = 8
 #: without the limit, reading them by model cost 2.4 ms per pattern frame
 #: (benchmarks/decode_clutter.py, model stage 0.7 → 3.1 ms); with it, nothing.
 NOTCHED_MIN_FILL = 0.6
+#: The local range pass (``"local_range"``, run on a frame that read nothing) keeps at most
+#: this many quads, the largest: a bound on the work per frame, as each is judged for blur
+#: (:func:`~ottag_db.decode.blur.edge_blur`, about 0.4 ms). Of scikit-image's 20 photographs
+#: at 640×480, 19 gave it 0–8 quads, brick 54.
+RANGE_MAX_QUADS = 8
 #: The printed quiet zone's outline in data-area units (corners in the unit square's order).
 _QUIET_OUTLINE = (UNIT_SQUARE - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
+#: The local passes that search the whole frame (at half resolution when it can): they also
+#: outline holes cut by the frame's edge; with Otsu's, they outline regions by lines.
+_LOCAL_PASSES = ("adaptive", "adaptive_dim", "local_range")
+_LINES_PASSES = (*_LOCAL_PASSES, "otsu")
 
 
 def find_quads(
@@ -104,7 +113,7 @@ def find_quads(
     ----------
     gray : numpy.ndarray
         ``(H, W)`` uint8 frame.
-    kind : {"adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes"}
+    kind : {"adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes", "local_range"}
         Local mean thresholding (at half resolution when :func:`searches_at_half_resolution`);
         ``"adaptive_dim"`` the same with the offset lowered for a dim frame
         (:func:`~ottag_db.decode.image.threshold_offset`) on the search smoothed first
@@ -120,7 +129,14 @@ def find_quads(
         all holes of a region (:func:`_joined_holes`): a data area its triangles cut into
         pieces (normal from ``"bright_holes"``, inverted from ``"adaptive_thin"``). The thin
         pass also outlines a dark region notched by its triangles by its hull
-        (:func:`_notched_outline`).
+        (:func:`_notched_outline`). ``"local_range"``: a pixel is dark below the midpoint of
+        the darkest and brightest pixel around it (the local mean window; AprilTag's
+        threshold), where they differ by ``min_contrast`` or more (at half resolution when
+        :func:`searches_at_half_resolution`). A long motion smears a tag's
+        triangles into its border, brighter than the local mean there, which notches the
+        data area's outline; the midpoint of a blurred step is the print's edge, and the
+        smeared triangles stay below it near the bright quiet zone. A notched region is
+        outlined by its hull here too; at most :data:`RANGE_MAX_QUADS` quads are kept.
     params : DetectorParams
         Uses the binarization, polarity, size and ``max_candidates`` settings.
     departure : float, optional
@@ -150,6 +166,18 @@ def find_quads(
         if departure is not None and departure < p.min_contrast:  # (see image.frame_has_contrast)
             return []  # (the mask below keeps OpenCV's threshold of the whole frame)
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
+    elif kind == "local_range":  # dark below the midpoint of the local darkest and brightest
+        search: NDArray[Any] = gray
+        if searches_at_half_resolution(gray.shape, p):
+            f = 2
+            search = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
+            block = max(7, (block // 2) | 1)
+        window = cv2.getStructuringElement(cv2.MORPH_RECT, (block, block))
+        darkest, brightest = cv2.erode(search, window), cv2.dilate(search, window)
+        midpoint = cv2.addWeighted(darkest, 0.5, brightest, 0.5, 0)
+        # (over min_contrast − 0.5: the range's whole grey levels from min_contrast on)
+        _, contrasted = cv2.threshold(cv2.subtract(brightest, darkest), p.min_contrast - 0.5, 255, cv2.THRESH_BINARY)
+        mask = cv2.bitwise_and(cv2.compare(search, midpoint, cv2.CMP_LT), contrasted)
     elif kind == "bright_holes":
         mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
     else:
@@ -185,7 +213,7 @@ def find_quads(
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
         outlines.append((c, inverted, len(c), int(hier[0][i][2])))
-    if kind in ("adaptive", "adaptive_dim") and want_inverted and p.outline_by_lines:  # (half resolution)
+    if kind in _LOCAL_PASSES and want_inverted and p.outline_by_lines:
         outlines.extend((c, True, len(c), -1) for c in holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
@@ -198,10 +226,10 @@ def find_quads(
     for c, inverted, perimeter, first_hole in outlines:
         holds_holes = first_hole >= 0
         approx = _quad_outline(c, perimeter)
-        if approx is None and kind == "adaptive_thin" and not inverted:
+        if approx is None and kind in ("adaptive_thin", "local_range") and not inverted:
             approx = _notched_outline(c)
         cut = approx is not None and at_frame_edge(approx, mask.shape)  # a corner beyond it?
-        lines = p.outline_by_lines and (approx is None or cut) and kind in ("adaptive", "adaptive_dim", "otsu")
+        lines = p.outline_by_lines and (approx is None or cut) and kind in _LINES_PASSES
         lines = lines and perimeter >= 2 * min_len
         # triangles first: only a dark region holding bright holes is a normal data area (an
         # inverted one, a hole itself, holds separate regions: its solidity decides below)
@@ -262,7 +290,7 @@ def find_quads(
         if not any(same_quad(cand, o) for o in quads):
             quads.append(cand)
     quads.sort(key=lambda qq: -qq.area)
-    return quads[: p.max_candidates]
+    return quads[: RANGE_MAX_QUADS if kind == "local_range" else p.max_candidates]
 
 
 def _holes(contours: Sequence[NDArray[Any]], hierarchy: NDArray[np.int32], first: int) -> list[NDArray[Any]]:

@@ -4,7 +4,8 @@ Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.typ
 
     image        to_gray                          image → grey
     candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads,
-                                                  then holes of the bright mask; seen_before: a
+                                                  then holes of the bright mask, then the local
+                                                  range for blurred tags; seen_before: a
                                                   foreshortened one outlined anew is read again,
                                                   its first decomposition and by model)
     segmentation segment / decompose              Quad → DataArea → [Decomposition]
@@ -203,6 +204,8 @@ class Detector:
             passes.append("adaptive_thin")
         if p.use_adaptive and "normal" in p.polarities:
             passes.append("bright_holes")
+        if p.use_adaptive:  # last: a long motion's smeared triangles notch the outlines above
+            passes.append("local_range")
         seen: list[Quad] = []
         # The best tag of each refused reading by model: a rival of the data area's other
         # outlines (seen_before). An inverted 8-point tag 26 px wide at 80° was refused from the
@@ -216,8 +219,8 @@ class Detector:
             edge_on = kind in ("adaptive_thin", "bright_holes")
             if edge_on and detections:
                 break  # the last resorts of a frame that read nothing: data areas seen nearly edge-on
-            if kind == "adaptive_dim" and detections:
-                continue  # the local threshold again, in a dim frame that read nothing
+            if kind in ("adaptive_dim", "local_range") and detections:
+                continue  # the local threshold again (dim or blurred frames) when nothing read
             if kind in ("adaptive_dim", "otsu"):  # how far the frame departs from its surroundings
                 departure = frame_departure(gray) if departure is None else departure  # (measured once)
                 if kind == "adaptive_dim" and threshold_offset(departure, p.adaptive_c) >= p.adaptive_c:
@@ -245,11 +248,18 @@ class Detector:
                     continue
                 # an outline seen again, or inferred from the lines of a partly hidden border (whose
                 # reading must show the print anyway), is read once: no alternatives or retries
-                once = again or quad.inferred
+                once = again or quad.inferred or kind == "local_range"
+                if kind == "local_range":
+                    # the blurred tags' pass: a quad whose sides are not a blurred tag's is none of
+                    # its candidates (the passes before it read the sharp ones), and it is read once
+                    blurred = None if again else self._blurred_tag(gray, quad)
+                    if blurred is None:
+                        continue
                 result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
                 # blurred sides: the points' tips and gaps are gone at every scale (reading by model)
                 # (an inferred one too: a long motion smears a data area's corners into no quad)
-                blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not again else None
+                if kind != "local_range":
+                    blurred = self._blurred_tag(gray, quad) if isinstance(result, Rejection) and not again else None
                 if isinstance(result, Rejection) and not once and blurred is None:
                     if result.reason in _RETRY_UPSAMPLED and result.decomposed:
                         result = read_upsampled(gray, quad, result, self._upsampled, p.min_margin_px, clock)

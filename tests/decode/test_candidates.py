@@ -8,6 +8,8 @@ import pytest
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams, candidates
+from ottag_db.decode.blur import edge_blur
+from ottag_db.decode.camera_blur import motion_kernel
 from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.image import DIM_OFFSET_MIN, frame_departure, threshold_offset
 from ottag_db.decode.quads import clockwise, squeeze
@@ -161,3 +163,36 @@ def test_a_dim_frame_is_searched_again_at_a_lowered_offset(bundled_db_path) -> N
     wall = np.clip(np.rint(np.random.default_rng(0).normal(110.0, 6.0, (480, 640))), 0, 255).astype(np.uint8)
     kinds = ("adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes")
     assert all(find_quads(wall, kind, p) == [] for kind in kinds)  # type: ignore[arg-type]
+
+
+def test_a_long_motion_keeps_the_data_area_whole_in_the_local_range(bundled_db_path) -> None:
+    """Tags 98 px wide tilted 30–50° on a grey wall (print tones 170 and 20 on 100, as a lit
+    print in a room) moved by 17 px: their smeared triangles, brighter than the local mean
+    near the data area's border, notch its outline under the local mean threshold
+    (``"adaptive"``: 4 or more of 24 lose it), while the midpoint of the local darkest and
+    brightest (``"local_range"``) keeps every one whole. On noisy walls its few quads (specks
+    of noise over ``min_contrast``) are no blurred tag's: the detector reads none of them."""
+    _, tags = printed_tags(bundled_db_path)
+    p = DetectorParams()
+    unit = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    by_mean = by_range = 0
+    for seed in range(24):
+        rng = np.random.default_rng(seed)
+        spec = sc.posed_spec(tags[seed % len(tags)], rng, 98.0, float(rng.uniform(30, 50)), "normal")
+        image = sc.render_scene((480, 640), [spec], rng, white=170, black=20, background=100, blur=0.7).image
+        kernel = motion_kernel(17, float(rng.uniform(0, 180)))
+        moved = cv2.filter2D(image.astype(np.float64), -1, kernel, borderType=cv2.BORDER_REPLICATE)
+        gray = np.clip(np.rint(moved + rng.normal(0, 2.0, moved.shape)), 0, 255).astype(np.uint8)
+        centre = sc.project(spec.homography, unit).mean(axis=0)
+
+        def outlined(kind: str, gray: np.ndarray = gray, centre: np.ndarray = centre) -> bool:
+            quads = find_quads(gray, kind, p)  # type: ignore[arg-type]
+            return any(np.linalg.norm(q.corners.mean(axis=0) - centre) < 5 for q in quads if q.polarity == "normal")
+
+        by_mean += outlined("adaptive")
+        by_range += outlined("local_range")
+    assert by_range == 24 and by_mean <= 20, (by_range, by_mean)
+    for seed, noise in enumerate((2.0, 4.0, 6.0, 6.0, 8.0)):
+        wall = np.clip(np.rint(np.random.default_rng(seed).normal(110.0, noise, (480, 640))), 0, 255)
+        specks = find_quads(wall.astype(np.uint8), "local_range", p)
+        assert not any(edge_blur(wall.astype(np.uint8), q).blurred for q in specks)
