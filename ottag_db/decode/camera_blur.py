@@ -37,6 +37,11 @@ _REFINE_EVALUATIONS = 16
 #: The turns (degrees) of a measured motion's direction tried before the pattern search: the
 #: sides placed a 15–17 px motion up to 30° off, beyond the search's reach from one start.
 _SWEEP = tuple(float(a) for a in range(0, 180, 30))
+#: The directions are also swept at this multiple of the longest measured motion: a triangle
+#: smeared across a side lowers its step's height, and the side then measures a long motion
+#: short (17 px motions measured 8–12 px on tags with a triangle along the sides across the
+#: motion), from where the pattern search's steps of :data:`_REFINE_STEPS` do not reach it.
+_LONGER = 1.6
 
 
 @dataclass(frozen=True)
@@ -202,10 +207,12 @@ def refined_blur(misfit: Callable[[Blur], float], blurs: tuple[Blur, ...]) -> Bl
         # half turn (the pattern search then refines length and direction together)
         middle = float(np.median([b.length for b in motions]))
         first = min((b for b in motions if b.length == middle), key=cost, default=motions[0])
-        # swept at the shortest and the longest measured length too: at a length far off the
-        # tag seen, the best turn can lie 60° off (a 17 px motion measured 27 px: best at 86°,
-        # not the motion's 149°), and the pattern search cannot climb back from there
-        lengths = dict.fromkeys((first.length, min(b.length for b in motions), max(b.length for b in motions)))
+        # swept at the shortest and the longest measured length too, and beyond it (_LONGER):
+        # at a length far off the tag seen, the best turn can lie 60° off (a 17 px motion
+        # measured 27 px: best at 86°, not the motion's 149°), and the pattern search cannot
+        # climb back from there
+        longest = max(b.length for b in motions)
+        lengths = dict.fromkeys((first.length, min(b.length for b in motions), longest, _LONGER * longest))
         swept = (replace(first, length=n, angle_deg=(first.angle_deg + a) % 180.0) for n in lengths for a in _SWEEP)
         starts.append(min(swept, key=cost))
     out = []

@@ -207,6 +207,7 @@ class Detector:
         if p.use_adaptive:  # last: a long motion's smeared triangles notch the outlines above
             passes.append("local_range")
         seen: list[Quad] = []
+        blurred_seen: list[Quad] = []  # the candidates read by model as blurred tags
         # The best tag of each refused reading by model: a rival of the data area's other
         # outlines (seen_before). An inverted 8-point tag 26 px wide at 80° was refused from the
         # local threshold's outline (a look-alike, ρ 0.926, next 0.922); Otsu's outline then
@@ -225,7 +226,12 @@ class Detector:
                 departure = frame_departure(gray) if departure is None else departure  # (measured once)
                 if kind == "adaptive_dim" and threshold_offset(departure, p.adaptive_c) >= p.adaptive_c:
                     continue  # not a dim frame
-            quads = [q for q in find_quads(gray, kind, p, departure) if not seen_before(q, seen, p.rectify_max_ratio)]
+            found = find_quads(gray, kind, p, departure)
+            if kind == "local_range":  # a blurred tag outlined anew: its edges' midpoints, not a
+                # threshold's notched or shrunk outline; again unless it was read as blurred before
+                quads = [q for q in found if not any(same_quad(q, b) for b in blurred_seen)]
+            else:
+                quads = [q for q in found if not seen_before(q, seen, p.rectify_max_ratio)]
             # A foreshortened data area outlined anew (kept by seen_before) is read again by model
             # only (its first decomposition; no alternatives, upsampled or rectified reading): its
             # new corners can rank the tag seen first there. On 2,000 grazing frames (78-86 deg,
@@ -233,7 +239,7 @@ class Detector:
             # read a tag the first outline had not; by model they read 38. An ArUco marker at
             # 76-88 deg spent 17-68 ms in each of up to three outlines' rectified readings
             # (benchmarks/decode_clutter.py: 229-265 -> 155 ms per frame).
-            outlined_again = [outlined_before(q, seen) for q in quads]
+            outlined_again = [kind != "local_range" and outlined_before(q, seen) for q in quads]
             seen.extend(quads)
             clock.lap("candidates")
             # read by model after the pass; a blurred one with its blur and coarse match
@@ -252,7 +258,7 @@ class Detector:
                 if kind == "local_range":
                     # the blurred tags' pass: a quad whose sides are not a blurred tag's is none of
                     # its candidates (the passes before it read the sharp ones), and it is read once
-                    blurred = None if again else self._blurred_tag(gray, quad)
+                    blurred = self._blurred_tag(gray, quad)
                     if blurred is None:
                         continue
                 result = read_quad(gray, quad, self._catalogue, None if once else FRAME_SEARCH, clock)
@@ -275,6 +281,8 @@ class Detector:
                 )
                 if isinstance(result, Rejection) and self._bank and wanted:
                     by_model.append((quad, result, blurred))
+                    if blurred is not None:
+                        blurred_seen.append(quad)
                 elif isinstance(result, Rejection):
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):

@@ -157,6 +157,26 @@ def test_the_refined_blur_sweeps_the_directions_at_every_measured_length() -> No
     assert best is not None and abs(best.length - 17.0) < 1.0 and turn(best.angle_deg, 149.0) < 3.0, best
 
 
+def test_the_refined_blur_reaches_a_motion_the_sides_measured_short() -> None:
+    """Measured about half long (8–10 px for a 17 px motion along 40°: a triangle smeared
+    across the sides lowers their steps), the directions fit best 60° off at those lengths:
+    swept beyond the longest measured length too, the search reaches the motion within 1 px
+    and 3°."""
+
+    def turn(angle: float, to: float) -> float:
+        return min(abs(angle - to) % 180.0, 180.0 - abs(angle - to) % 180.0)
+
+    def misfit(b: Blur) -> float:
+        if b.length <= 1.0:
+            return 6.0  # no defocus fits
+        towards = 40.0 if b.length > 12.0 else 100.0  # a short smear fits another direction best
+        return 2.4 + (b.length - 17.0) ** 2 / 8 + (turn(b.angle_deg, towards) / 10) ** 2
+
+    measured = tuple(Blur(0.7, 9.0 * f, a) for a in (95.0, 100.0, 105.0) for f in (0.9, 1.0, 1.1))
+    best = refined_blur(misfit, measured)
+    assert best is not None and abs(best.length - 17.0) < 1.0 and turn(best.angle_deg, 40.0) < 3.0, best
+
+
 @pytest.mark.parametrize("sigma", [1.5, 2.0])
 def test_sensor_noise_does_not_sharpen_the_sides(printed, sigma) -> None:
     """In dim light (contrast a quarter, noise σ 6) the sides of tags defocused by 1.5–2 px
