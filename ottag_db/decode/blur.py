@@ -52,6 +52,13 @@ BLURRED_PAIR_RATIO = 2.0
 #: defocused tag's opposite sides then measured 1.5 and 3.0 px; clutter sharp on one side and
 #: soft on the other measures each side consistently along it, so its errors stay small.
 BLURRED_PAIR_ERRORS = 2.0
+#: The opposite sides' pair test (:attr:`EdgeBlur.blurred`) leaves out a pair with a side whose
+#: step is under this share of the candidate's (the median of its sides' steps): a long motion
+#: smears a triangle near a side into its border, and the step left there, from the smear's
+#: grey to the quiet zone, is a third to a half of the tag's (40–50 grey levels against 130–150
+#: under 15–17 px motions); its slope measures the smear, not the motion (σ 1.8–1.9 where the
+#: opposite side measured 5.7–6.0).
+STEP_MIN_SHARE = 0.5
 #: The largest local misfit (in units of the frame's contrast, as ``model_max_misfit``) of a
 #: tag read by model when judged with the blur its sides measure. Drawn with the right blur,
 #: the tag seen explains the frame nearly exactly: 0.02–0.04 under defocus of 2–4 px, up to
@@ -136,12 +143,16 @@ class EdgeBlur:
     errors : tuple of float
         Per side, the standard error (frame px) of its blur, from the scatter of its samples
         (1.25 × their interquartile range / 1.35 / √count); NaN where the side's blur is.
+    steps : tuple of float
+        Per side, the median height (grey levels) of its samples' steps; NaN where the side's
+        blur is (0.0: not measured).
     """
 
     sides: tuple[float, ...]
     normals: _F64
     offsets: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
     errors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+    steps: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
 
     @property
     def largest(self) -> float:
@@ -169,7 +180,10 @@ class EdgeBlur:
             return False
         # sides sharper than a camera in focus blurs count as that sharp (a motion along a pair)
         floor = NOMINAL_BLURS_PX[1]
+        least_step = STEP_MIN_SHARE * float(np.median(self.steps))
         for i in (0, 1):
+            if min(self.steps[i], self.steps[i + 2]) < least_step:
+                continue  # one side's step is a triangle's smeared into it: its slope measures that
             (low, e_low), (high, e_high) = sorted(
                 ((max(self.sides[j], floor), self.errors[j]) for j in (i, i + 2)), key=lambda v: v[0]
             )
@@ -297,11 +311,14 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     # the step's midpoint: the steepest point's median position across the side
     where = np.where(np.isfinite(sigma.ravel()), across[steepest] + _ACROSS_STEP / 2, np.nan).reshape(4, len(_ALONG))
     offsets = np.where(valid, _finite_medians(where, count), np.nan)
+    heights = np.where(np.isfinite(sigma), height.reshape(4, len(_ALONG)), np.nan)
+    steps = np.where(valid, _finite_medians(heights, count), np.nan)
     return EdgeBlur(
         tuple(float(v) for v in per_side),
         normal,
         tuple(float(v) for v in offsets),
         tuple(float(v) for v in errors),
+        tuple(float(v) for v in steps),
     )
 
 

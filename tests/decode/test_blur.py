@@ -177,6 +177,23 @@ def test_the_refined_blur_reaches_a_motion_the_sides_measured_short() -> None:
     assert best is not None and abs(best.length - 17.0) < 1.0 and turn(best.angle_deg, 40.0) < 3.0, best
 
 
+def test_a_side_whose_step_is_a_smeared_triangle_is_left_out_of_the_pair_test() -> None:
+    """A 15 px motion across a data area's left and right sides, a bright triangle smeared
+    along the right one inside: that side's step (from the smear's grey to the quiet zone) is
+    under a third of the others', and its slope measures no motion, where the left side
+    measures it; the pair is left out of the test, and the sides are a blurred tag's."""
+    image = np.full((300, 300), 100.0)
+    image[60:240, 60:240] = 170.0  # the quiet zone
+    image[90:210, 90:210] = 15.0  # the data area
+    image[95:205, 180:208] = 120.0  # a triangle smeared along its right side
+    gray = np.clip(np.rint(cv2.GaussianBlur(_motion(image, 15, 0.0), (0, 0), 0.7)), 0, 255).astype(np.uint8)
+    corners = np.array([[89.5, 89.5], [209.5, 89.5], [209.5, 209.5], [89.5, 209.5]])
+    blur = edge_blur(gray, Quad("normal", corners, 120.0**2))
+    assert blur.sides[1] < 1.5 < 4.0 < blur.sides[3], blur.sides
+    assert blur.steps[1] < 0.35 * min(blur.steps[0], blur.steps[2], blur.steps[3]), blur.steps
+    assert blur.blurred
+
+
 @pytest.mark.parametrize("sigma", [1.5, 2.0])
 def test_sensor_noise_does_not_sharpen_the_sides(printed, sigma) -> None:
     """In dim light (contrast a quarter, noise σ 6) the sides of tags defocused by 1.5–2 px
