@@ -175,7 +175,8 @@ class EdgeBlur:
         """Whether these are a blurred tag's sides: the largest blur at least
         :data:`BLURRED_MIN_SIGMA`, every side measured, and opposite sides blurred alike
         (within :data:`BLURRED_PAIR_RATIO`, each side's blur allowed :data:`BLURRED_PAIR_ERRORS`
-        standard errors towards the other's)."""
+        standard errors towards the other's; a pair with a side whose step is under
+        :data:`STEP_MIN_SHARE` of the candidate's is not compared)."""
         if self.largest < BLURRED_MIN_SIGMA or not all(math.isfinite(s) for s in self.sides):
             return False
         # sides sharper than a camera in focus blurs count as that sharp (a motion along a pair)
