@@ -166,29 +166,20 @@ def find_quads(
         if departure is not None and departure < p.min_contrast:  # (see image.frame_has_contrast)
             return []  # (the mask below keeps OpenCV's threshold of the whole frame)
         _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
-    elif kind == "local_range":  # dark below the midpoint of the local darkest and brightest
-        search: NDArray[Any] = gray
-        if searches_at_half_resolution(gray.shape, p):
-            f = 2
-            search = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
-            block = max(7, (block // 2) | 1)
-        window = cv2.getStructuringElement(cv2.MORPH_RECT, (block, block))
-        darkest, brightest = cv2.erode(search, window), cv2.dilate(search, window)
-        midpoint = cv2.addWeighted(darkest, 0.5, brightest, 0.5, 0)
-        # (over min_contrast − 0.5: the range's whole grey levels from min_contrast on)
-        _, contrasted = cv2.threshold(cv2.subtract(brightest, darkest), p.min_contrast - 0.5, 255, cv2.THRESH_BINARY)
-        mask = cv2.bitwise_and(cv2.compare(search, midpoint, cv2.CMP_LT), contrasted)
     elif kind == "bright_holes":
         mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
     else:
         src: NDArray[Any] = gray
-        if kind in ("adaptive", "adaptive_dim") and searches_at_half_resolution(gray.shape, p):
+        if kind in _LOCAL_PASSES and searches_at_half_resolution(gray.shape, p):
             f = 2
             src = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
             block = max(7, (block // 2) | 1)
         if kind == "adaptive_dim":  # a dim frame: its sensor noise nears the lowered offset
             src = cv2.GaussianBlur(src, (0, 0), DIM_SMOOTHING_PX)
-        mask = cv2.adaptiveThreshold(src, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, offset)
+        if kind == "local_range":
+            mask = _range_mask(src, block, p.min_contrast)
+        else:
+            mask = cv2.adaptiveThreshold(src, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, offset)
     want_normal = "normal" in p.polarities
     want_inverted = "inverted" in p.polarities
     min_len = 4 * p.min_quad_side_px / f
@@ -291,6 +282,18 @@ def find_quads(
             quads.append(cand)
     quads.sort(key=lambda qq: -qq.area)
     return quads[: RANGE_MAX_QUADS if kind == "local_range" else p.max_candidates]
+
+
+def _range_mask(src: NDArray[Any], block: int, min_range: float) -> NDArray[Any]:
+    """The dark mask of AprilTag's threshold: a pixel below the midpoint of the darkest and
+    brightest pixel of the ``block`` × ``block`` window about it, where the two differ by
+    ``min_range`` grey levels or more (erosion and dilation by the window, in OpenCV)."""
+    window = cv2.getStructuringElement(cv2.MORPH_RECT, (block, block))
+    darkest, brightest = cv2.erode(src, window), cv2.dilate(src, window)
+    midpoint = cv2.addWeighted(darkest, 0.5, brightest, 0.5, 0)
+    # (over min_range − 0.5: the range's whole grey levels from min_range on)
+    _, contrasted = cv2.threshold(cv2.subtract(brightest, darkest), min_range - 0.5, 255, cv2.THRESH_BINARY)
+    return np.asarray(cv2.bitwise_and(cv2.compare(src, midpoint, cv2.CMP_LT), contrasted))
 
 
 def _holes(contours: Sequence[NDArray[Any]], hierarchy: NDArray[np.int32], first: int) -> list[NDArray[Any]]:
