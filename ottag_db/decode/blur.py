@@ -26,6 +26,7 @@ from ottag_db.decode.types import Quad
 
 __all__ = [
     "BLURRED_MAX_MISFIT",
+    "BLURRED_MAX_MISFIT_NOISY",
     "BLURRED_MIN_SIGMA",
     "NOMINAL_BLURS_PX",
     "EdgeBlur",
@@ -63,9 +64,16 @@ STEP_MIN_SHARE = 0.5
 #: tag read by model when judged with the blur its sides measure. Drawn with the right blur,
 #: the tag seen explains the frame nearly exactly: 0.02–0.04 under defocus of 2–4 px, up to
 #: about 0.1 under motion blur (whose kernel the sides only approximate); a look-alike's
-#: differing triangle, blurred as much, still leaves 0.17–0.24 — within the nominal limit,
-#: which expects sharp triangles' full contrast.
+#: differing triangle, blurred as much, still leaves 0.14–0.24 — within the nominal limit,
+#: which expects sharp triangles' full contrast. In a noisy frame the limit widens by what the
+#: noise alone leaves (:attr:`~ottag_db.decode.model_align.Aligned.blurred_misfit_limit`).
 BLURRED_MAX_MISFIT = 0.12
+#: The widest the noise makes that limit. In a dim frame (contrast a quarter, noise σ 6) the
+#: noise alone leaves 0.08–0.17 of a tag's contrast; the tag seen misfit its drawing by up to
+#: 0.133 there, and a look-alike that would be read where the tag seen is taken out of the
+#: lookup (its correlation and lead enough) by 0.177 and more: beyond this, the noise hides
+#: the difference.
+BLURRED_MAX_MISFIT_NOISY = 0.15
 #: The smallest coarse match (:func:`~ottag_db.decode.model_budget.ranking_score`, on 16²
 #: cells, where a blur of up to 4 px is under a cell of a 98 px data area) of a blurred
 #: candidate read by model: a blurred tag's data area correlates 0.75–0.96 with its printed
@@ -124,6 +132,18 @@ _ACROSS_STEP = 0.5
 #: 1.7) when smoothed by half a pixel; smoothed by one it measures 2.3, sharp sides still
 #: under 1 px.
 _SMOOTHING_PX = 1.0
+#: The smallest height (grey levels) of a sample's step that measures the side's blur (where a
+#: triangle touches the side, or a long motion smeared one into it, there is little or no step
+#: from the quiet zone): 20, or :data:`STEP_MIN_SHARE` of the median height of the candidate's
+#: samples where that is less, but not under :data:`_NOISE_HEIGHT`. A dim frame's steps are
+#: 25–45 grey levels, and under sensor noise the steepest point wanders along a blurred ramp,
+#: scattering a sample's height by ±10 (noise σ 6 on a defocus of 2.5 px: a side's nine samples
+#: measured 17–33), so a fixed 20 left sides unmeasured.
+_MIN_HEIGHT = 20.0
+#: The height (grey levels) under which a sample shows no step at all: sensor noise of σ 6,
+#: averaged over the five profiles of a sample and smoothed, leaves heights of 2–5 on a flat
+#: region (a photograph's smooth sky or page: 1–7).
+_NOISE_HEIGHT = 10.0
 
 
 @dataclass(frozen=True)
@@ -299,7 +319,8 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     with np.errstate(divide="ignore", invalid="ignore"):
         sigma = height / (slope * math.sqrt(2 * math.pi))
     sigma = np.sqrt(np.maximum(sigma * sigma - _SMOOTHING_PX**2, 0.0))  # the smoothing's own blur taken out
-    sigma = np.where((height >= 20) & (slope > 0), sigma, np.nan).reshape(4, len(_ALONG))
+    least = min(max(STEP_MIN_SHARE * float(np.median(height)), _NOISE_HEIGHT), _MIN_HEIGHT)
+    sigma = np.where((height >= least) & (slope > 0), sigma, np.nan).reshape(4, len(_ALONG))
     count = np.isfinite(sigma).sum(axis=1)
     valid = (count >= len(_ALONG) // 2) & (length >= 4)
     ordered = np.sort(sigma, axis=1)  # (NaN last) for the median and the quartiles

@@ -5,6 +5,7 @@ its blur would see each printed tag (:func:`~ottag_db.decode.model_align.judge`)
 Gaussian) or a linear motion on top of the optics' own blur (:class:`Blur`, drawn with
 :func:`motion_kernel`). Its sides' blurs give the blurs to try (:func:`measured_blurs`), and the
 one that fits the best aligned tag's view is refined by a pattern search (:func:`refined_blur`).
+The camera's sensor noise (:func:`sensor_noise`) tells how closely a tag so drawn can fit.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from numpy.typing import NDArray
 
 from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur
 
-__all__ = ["Blur", "measured_blurs", "motion_kernel", "refined_blur"]
+__all__ = ["Blur", "measured_blurs", "motion_kernel", "refined_blur", "sensor_noise"]
 
 #: The motion lengths drawn, as fractions of the length the sides measure: a side's width
 #: mixes the motion with the optics' blur, which a box of the measured variance only
@@ -105,6 +106,30 @@ def motion_kernel(length: float, angle_deg: float) -> NDArray[np.float32]:
                 kernel[yy, xx] += w
     total = float(kernel.sum())
     return kernel / total if total > 0 else kernel
+
+
+def sensor_noise(image: NDArray[np.float32]) -> float:
+    """The standard deviation (grey levels) of the sensor noise in ``image``.
+
+    Immerkær's estimate, made robust: the image filtered by the difference of two Laplacians
+    (``[1 -2 1; -2 4 -2; 1 -2 1]``), which cancels any plane and nearly cancels a blurred
+    step, leaves white noise of σ multiplied by 6; its median absolute value is then 0.6745 of
+    that. The median keeps the sharp steps of a tag's triangles and sides out (they fill a few
+    pixels in ten of a data area's neighbourhood). It is taken over every other row and column
+    (neighbouring responses share most of their pixels; the median's sort is the cost).
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        ``(H, W)`` float32, at least 3 × 3.
+
+    Returns
+    -------
+    float
+    """
+    kernel = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], dtype=np.float32)
+    response = cv2.filter2D(image, cv2.CV_32F, kernel)[1:-1:2, 1:-1:2]
+    return float(np.median(np.abs(response))) / (6.0 * 0.6745)
 
 
 def measured_blurs(blur: EdgeBlur | None) -> tuple[Blur, ...]:

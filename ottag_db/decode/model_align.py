@@ -18,11 +18,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.blur import NOMINAL_BLURS_PX
-from ottag_db.decode.camera_blur import Blur, refined_blur
+from ottag_db.decode.blur import BLURRED_MAX_MISFIT, BLURRED_MAX_MISFIT_NOISY, NOMINAL_BLURS_PX
+from ottag_db.decode.camera_blur import Blur, refined_blur, sensor_noise
 from ottag_db.decode.ecc import ecc, to_roi
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
-from ottag_db.decode.templates import TemplateBank, draw_through, normalized_rows, rasterize
+from ottag_db.decode.templates import (
+    TemplateBank,
+    contrast_fit,
+    contrast_residual,
+    draw_through,
+    normalized_rows,
+    rasterize,
+)
 
 __all__ = [
     "INVERTED_QUIET",
@@ -98,6 +105,21 @@ _MISFIT_WINDOW = 4
 #: leaves 0.02–0.04 — and by 0.05–0.08 averaged so; a triangle that differs is several cells
 #: wide and keeps its patch.
 _CELL_AVERAGE = 0.5
+#: The standard deviation of the mean, over a misfit window (:data:`_MISFIT_WINDOW` cells of
+#: 1 px, each averaged by :data:`_CELL_AVERAGE`), of white noise of σ 1: the Gaussians' sum of
+#: the noise's correlations between the window's cells (divide by the cell's side in px).
+_WINDOW_NOISE_GAIN = float(
+    np.exp(
+        -(np.subtract.outer(np.arange(_MISFIT_WINDOW), np.arange(_MISFIT_WINDOW)) ** 2) / (4 * _CELL_AVERAGE**2)
+    ).sum()
+    / _MISFIT_WINDOW**2
+    / math.sqrt(4 * math.pi * _CELL_AVERAGE**2)
+)
+#: How many of those standard deviations the largest window mean of the noise alone reaches
+#: over a data area (:attr:`Aligned.misfit_noise`): simulated on the 39² cells inside it, the
+#: largest absolute mean of the sliding windows lies 3.7 standard deviations out in the median
+#: (4.6 in the 95th percentile).
+_NOISE_WINDOWS_SD = 3.7
 #: The quiet zone drawn around the tag when it is judged (data-area units, :data:`INVERTED_QUIET`).
 _DRAWN_QUIET = INVERTED_QUIET
 #: An alignment whose ECC first phase stayed unpromising (:data:`~ottag_db.decode.ecc.PROMISING_CORRELATION`)
@@ -135,7 +157,9 @@ class Aligned:
     measured on a blurred candidate (:func:`fit_blur`; each cell averaged over the pixels about
     it, :data:`_CELL_AVERAGE`, as for its misfit) when it is judged with it, else
     ``correlation``; it must reach the minimum correlation, while
-    the gap to the other tags is judged on ``correlation``."""
+    the gap to the other tags is judged on ``correlation``. ``misfit_noise``: with a measured
+    blur, the misfit the frame's sensor noise (:func:`~ottag_db.decode.camera_blur.sensor_noise`)
+    alone would leave on a tag that fits exactly (:data:`_NOISE_WINDOWS_SD`), else 0."""
 
     row: int
     view: View
@@ -144,6 +168,15 @@ class Aligned:
     misfit: float
     quiet_misfit: float
     blurred_correlation: float
+    misfit_noise: float = 0.0
+
+    @property
+    def blurred_misfit_limit(self) -> float:
+        """The largest misfit of a tag read with its measured blur: :data:`~ottag_db.decode.blur.BLURRED_MAX_MISFIT`
+        and :attr:`misfit_noise` added in quadrature (the drawing's own error and the noise are
+        independent, and their largest windows seldom coincide), at most
+        :data:`~ottag_db.decode.blur.BLURRED_MAX_MISFIT_NOISY`."""
+        return min(math.hypot(BLURRED_MAX_MISFIT, self.misfit_noise), BLURRED_MAX_MISFIT_NOISY)
 
 
 def _quiet_ring(b: float) -> _F32:
@@ -375,7 +408,7 @@ def fit_blur(roi: _F32, origin: _F64, bank: TemplateBank, aligned: Aligned, blur
         view = np.asarray(
             cv2.warpPerspective(kind.apply(drawn), warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE), np.float32
         ).ravel()
-        scale, offset = _contrast_fit(view, seen.ravel())
+        scale, offset = contrast_fit(view, seen.ravel())
         return float(np.abs(seen.ravel() - (scale * view + offset)).mean())
 
     return refined_blur(residual, blurs)
@@ -417,7 +450,7 @@ def judge(
     # edges in a blurrier frame misfit like a look-alike's triangle (at 84°, 0.29-0.31 over the
     # limit of 0.28: normal tags 3 points behind inverted ones, benchmarks/decode_sweeps.py)
     s_outline = seen[_FINE_OUTLINE]
-    expected = min(blurred, key=lambda e: _contrast_residual(e[_FINE_OUTLINE], s_outline))
+    expected = min(blurred, key=lambda e: contrast_residual(e[_FINE_OUTLINE], s_outline))
     if frame_blur is not None:  # the blur measured on the candidate, for every tag alike
         expected = blurred[-1]
     pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
@@ -426,8 +459,9 @@ def judge(
     # one (and the look-alikes 0.97-0.98: blur compresses the gaps, which the nominal one keeps)
     fitted = pair[0] @ pair[1]
     e_in = expected[inside, inside]
-    coef = _contrast_fit(e_in.ravel(), s_in.ravel())
+    coef = contrast_fit(e_in.ravel(), s_in.ravel())
     resid = s_in - (coef[0] * e_in + coef[1])
+    noise = 0.0
     if frame_blur is None:
         resid = np.abs(resid)
     else:
@@ -447,6 +481,7 @@ def judge(
         both = normalized_rows(np.stack([e_av.ravel(), s_av.ravel()]))
         fitted = both[0] @ both[1]
         resid = s_av - (coef[0] * e_av + coef[1])
+        noise = _NOISE_WINDOWS_SD * _WINDOW_NOISE_GAIN * sensor_noise(roi) / (_FINE_STEP * math.sqrt(area))
     # with a measured blur, the signed residual is averaged: a differing triangle leaves a patch
     # of one sign, while the sensor noise of a dim, blurred frame averages out (its absolute
     # value alone filled a quarter of the strict limit, blur.BLURRED_MAX_MISFIT)
@@ -457,28 +492,5 @@ def judge(
     band = _FINE_BAND_CELLS
     quiet = np.abs(seen[band] - (coef[0] * expected[band] + coef[1]))
     quiet_misfit = float(quiet.mean() / max(abs(float(coef[0])), 1e-6))
-    return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit, float(fitted))
-
-
-def _contrast_fit(expected: _F32, seen: _F32) -> _F32:
-    """Scale and offset (least squares) that take the drawn tag's values ``expected`` to the
-    frame's ``seen`` (both 1-D): the scale is the frame's contrast per unit of the tag's."""
-    # the normal equations of a line in closed form (float64): np.linalg.lstsq's SVD cost
-    # 0.1 ms a call for these two unknowns, and a blurred candidate's fit calls it hundreds of times
-    e = expected.astype(np.float64)
-    v = seen.astype(np.float64)
-    e_mean, v_mean = float(e.mean()), float(v.mean())
-    spread = float(((e - e_mean) ** 2).sum())
-    if spread > 0.0:
-        scale = float(((e - e_mean) * (v - v_mean)).sum()) / spread
-        offset = v_mean - scale * e_mean
-    else:  # a uniform drawing: the least-norm solution, as lstsq gives it
-        scale, offset = e_mean * v_mean / (e_mean**2 + 1.0), v_mean / (e_mean**2 + 1.0)
-    return np.array([scale, offset], dtype=np.float32)
-
-
-def _contrast_residual(expected: _F32, seen: _F32) -> float:
-    """Mean absolute residual of ``seen`` against ``expected`` under :func:`_contrast_fit`, in
-    units of its scale."""
-    scale, offset = _contrast_fit(expected, seen)
-    return float(np.abs(seen - (scale * expected + offset)).mean() / max(abs(float(scale)), 1e-6))
+    contrast = max(abs(float(coef[0])), 1e-6)
+    return Aligned(row, view, to_frame, float(pair[0] @ pair[1]), misfit, quiet_misfit, float(fitted), noise / contrast)

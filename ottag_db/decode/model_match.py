@@ -62,7 +62,6 @@ from numpy.typing import NDArray
 from ottag_db.core.canonical import lambda_text
 from ottag_db.core.single_set import read_set
 from ottag_db.decode.blur import (
-    BLURRED_MAX_MISFIT,
     BLURRED_MIN_NOMINAL_CORRELATION,
     BLURRED_MIN_SIDE,
     EdgeBlur,
@@ -391,11 +390,12 @@ def _decide(
 def _accepted(top: Aligned, runner_up: float, params: DetectorParams, blurred: bool = False) -> bool:
     """Whether the best aligned tag is read (the ``model_*`` limits of :class:`DetectorParams`;
     judged with the candidate's measured blur, ``blurred``, the misfit within
-    :data:`~ottag_db.decode.blur.BLURRED_MAX_MISFIT`)."""
+    :attr:`~ottag_db.decode.model_align.Aligned.blurred_misfit_limit`)."""
+    limit = min(top.blurred_misfit_limit, params.model_max_misfit) if blurred else params.model_max_misfit
     return (
         top.blurred_correlation >= params.model_min_correlation
         and top.correlation - runner_up >= params.model_min_gap
-        and top.misfit <= (min(BLURRED_MAX_MISFIT, params.model_max_misfit) if blurred else params.model_max_misfit)
+        and top.misfit <= limit
         and top.quiet_misfit <= params.model_max_quiet_misfit
     )
 
