@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ottag_db.decode.blur import NOMINAL_BLURS_PX, EdgeBlur
 
-__all__ = ["Blur", "measured_blurs", "motion_kernel", "refined_blur", "sensor_noise"]
+__all__ = ["Blur", "FrameCamera", "measured_blurs", "motion_kernel", "refined_blur", "sensor_noise"]
 
 #: The motion lengths drawn, as fractions of the length the sides measure: a side's width
 #: mixes the motion with the optics' blur, which a box of the measured variance only
@@ -70,6 +70,17 @@ class Blur:
         if self.length > 1.0:
             out = cv2.filter2D(out, -1, motion_kernel(self.length, self.angle_deg), borderType=cv2.BORDER_REPLICATE)
         return np.asarray(out, dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class FrameCamera:
+    """The camera a blurred candidate was seen with, to judge every tag alike
+    (:func:`~ottag_db.decode.model_align.judge`): its blur
+    (:func:`~ottag_db.decode.model_align.fit_blur`) and the σ (grey levels) of the sensor noise
+    around the candidate (:func:`sensor_noise`), measured once per candidate."""
+
+    blur: Blur
+    noise: float
 
 
 def motion_kernel(length: float, angle_deg: float) -> NDArray[np.float32]:

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
 from ottag_db.decode.blur import BLURRED_MAX_MISFIT, BLURRED_MAX_MISFIT_NOISY, NOMINAL_BLURS_PX
-from ottag_db.decode.camera_blur import Blur, refined_blur, sensor_noise
+from ottag_db.decode.camera_blur import Blur, FrameCamera, refined_blur
 from ottag_db.decode.ecc import ecc, to_roi
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 from ottag_db.decode.templates import (
@@ -341,25 +341,25 @@ def align(
     bank: TemplateBank,
     row: int,
     view: View,
-    frame_blur: Blur | None = None,
+    camera: FrameCamera | None = None,
     converge: bool = False,
 ) -> Aligned | None:
     """ECC alignment of template ``row`` to the frame from the view's corners
     (:func:`~ottag_db.decode.ecc.ecc`), judged against the tag as the camera would see it there
-    (``frame_blur``: see :func:`judge`); None when ECC fails, or when its first phase stayed
+    (``camera``: see :func:`judge`); None when ECC fails, or when its first phase stayed
     unpromising and the tag judged there correlates under :data:`_UNREFINED_MAX_CORRELATION`
     (unless ``converge``: a candidate whose sides measured blurred, judged again with its blur
     later, whose sharp template correlates low with it until ECC has run its course)."""
     template = fine_template(bank.triangles[row], view.polarity)
     found = ecc(roi, origin, template, view.corners, _FINE_PX_TO_UNIT)
     if found is not None and not found.converged:
-        judged = judge(roi, origin, bank, row, view, found.to_frame, frame_blur)
+        judged = judge(roi, origin, bank, row, view, found.to_frame, camera)
         if not converge and max(judged.correlation, judged.blurred_correlation) < _UNREFINED_MAX_CORRELATION:
             return None  # can neither be read nor rival a reading: counted as not aligned
         found = ecc(roi, origin, template, view.corners, _FINE_PX_TO_UNIT, resume=found)
     if found is None:
         return None
-    return judge(roi, origin, bank, row, view, found.to_frame, frame_blur)
+    return judge(roi, origin, bank, row, view, found.to_frame, camera)
 
 
 def _drawn(roi: _F32, origin: _F64, bank: TemplateBank, row: int, view: View, to_frame: _F64) -> _F32:
@@ -421,12 +421,13 @@ def judge(
     row: int,
     view: View,
     to_frame: _F64,
-    frame_blur: Blur | None = None,
+    camera: FrameCamera | None = None,
 ) -> Aligned:
     """Template ``row`` judged against the frame under the homography ``to_frame`` (data-area
-    units → frame), as the camera would see it there (see :class:`Aligned`); ``frame_blur``:
-    the blur a blurred candidate's sides and best tag measure (:func:`fit_blur`), which the
-    misfits and ``blurred_correlation`` then take, for every tag alike."""
+    units → frame), as the camera would see it there (see :class:`Aligned`); ``camera``: the
+    blur a blurred candidate's sides and best tag measure (:func:`fit_blur`), which the misfits
+    and ``blurred_correlation`` then take, for every tag alike, and the noise around it, which
+    gives ``misfit_noise``."""
     warp = to_roi(origin) @ to_frame @ _FINE_PX_TO_UNIT
     size = (_FINE_GRID, _FINE_GRID)
     flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
@@ -436,7 +437,7 @@ def judge(
     # strip of the data area, which a template blurred in data-area units does not model (the
     # correct tag's sliver tips then misfit like a different tag's triangle).
     drawn = _drawn(roi, origin, bank, row, view, to_frame)
-    kinds = [Blur(sigma) for sigma in NOMINAL_BLURS_PX] + ([] if frame_blur is None else [frame_blur])
+    kinds = [Blur(sigma) for sigma in NOMINAL_BLURS_PX] + ([] if camera is None else [camera.blur])
     applied = [kind.apply(drawn) for kind in kinds]
     blurred = [
         np.asarray(cv2.warpPerspective(im, warp, size, flags=flags, borderMode=cv2.BORDER_REPLICATE), dtype=np.float32)
@@ -451,7 +452,7 @@ def judge(
     # limit of 0.28: normal tags 3 points behind inverted ones, benchmarks/decode_sweeps.py)
     s_outline = seen[_FINE_OUTLINE]
     expected = min(blurred, key=lambda e: contrast_residual(e[_FINE_OUTLINE], s_outline))
-    if frame_blur is not None:  # the blur measured on the candidate, for every tag alike
+    if camera is not None:  # the blur measured on the candidate, for every tag alike
         expected = blurred[-1]
     pair = normalized_rows(np.stack([blurred[0][inside, inside].ravel(), s_in.ravel()]))
     # on a blurred candidate also with the blur that fits its outline: a tag blurred by 3.5 px
@@ -462,7 +463,7 @@ def judge(
     coef = contrast_fit(e_in.ravel(), s_in.ravel())
     resid = s_in - (coef[0] * e_in + coef[1])
     noise = 0.0
-    if frame_blur is None:
+    if camera is None:
         resid = np.abs(resid)
     else:
         # each cell the mean of the frame's pixels about it (and of the tag's): the correlation
@@ -481,7 +482,7 @@ def judge(
         both = normalized_rows(np.stack([e_av.ravel(), s_av.ravel()]))
         fitted = both[0] @ both[1]
         resid = s_av - (coef[0] * e_av + coef[1])
-        noise = _NOISE_WINDOWS_SD * _WINDOW_NOISE_GAIN * sensor_noise(roi) / (_FINE_STEP * math.sqrt(area))
+        noise = _NOISE_WINDOWS_SD * _WINDOW_NOISE_GAIN * camera.noise / (_FINE_STEP * math.sqrt(area))
     # with a measured blur, the signed residual is averaged: a differing triangle leaves a patch
     # of one sign, while the sensor noise of a dim, blurred frame averages out (its absolute
     # value alone filled a quarter of the strict limit, blur.BLURRED_MAX_MISFIT)

@@ -67,7 +67,7 @@ from ottag_db.decode.blur import (
     EdgeBlur,
     edge_blur,
 )
-from ottag_db.decode.camera_blur import Blur, measured_blurs
+from ottag_db.decode.camera_blur import FrameCamera, measured_blurs, sensor_noise
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import Aligned, View, align, fit_blur, judge, neighbourhood, outline_views
 from ottag_db.decode.model_budget import coarse_samples, contour_views, view_samples
@@ -313,11 +313,10 @@ def read_model(
     if not _accepted(top, runner_up, params) and judged_blurred:
         # judged again as a camera with the blur its sides measure would see each tag (the
         # same alignments): the nominal blur misfits a defocused tag's triangles everywhere
-        frame_blur = fit_blur(roi, origin, bank, top, measured_blurs(blur))
-        rejudged = [judge(roi, origin, bank, a.row, a.view, a.to_frame, frame_blur) for a in aligned]
-        top, runner_up = _decide_with_challengers(
-            gray, roi, origin, bank, rejudged, unaligned, params, rivals, frame_blur
-        )
+        fitted = fit_blur(roi, origin, bank, top, measured_blurs(blur))
+        camera = None if fitted is None else FrameCamera(fitted, sensor_noise(roi))  # (for every tag)
+        rejudged = [judge(roi, origin, bank, a.row, a.view, a.to_frame, camera) for a in aligned]
+        top, runner_up = _decide_with_challengers(gray, roi, origin, bank, rejudged, unaligned, params, rivals, camera)
         blurred = True
     clock.lap("model")
     note = (
@@ -344,17 +343,17 @@ def _decide_with_challengers(
     unaligned: list[float],
     params: DetectorParams,
     rivals: tuple[ModelGuess, ...],
-    frame_blur: Blur | None,
+    camera: FrameCamera | None,
 ) -> tuple[Aligned, float]:
     """:func:`_decide`, and when the winner is accepted, again with its challengers (judged
-    with the candidate's measured ``frame_blur`` too, see :func:`~ottag_db.decode.model_align.judge`)."""
+    with the candidate's measured ``camera`` too, see :func:`~ottag_db.decode.model_align.judge`)."""
     top, runner_up = _decide(aligned, unaligned, bank, params, rivals)
-    if _accepted(top, runner_up, params, frame_blur is not None):
+    if _accepted(top, runner_up, params, camera is not None):
         # Small, steep data areas rank the tag seen as low as 11th–58th by the coarse score
         # from the contour's corners (benchmarks/soft_decoding.py scenes, 50–110 px at
         # 70–80°), and a look-alike among the few refined then wins unrivalled: the winner must
         # also beat the best tags of the coarse match from its own, refined alignment.
-        challengers = _challengers(gray, roi, origin, bank, aligned, top, frame_blur)
+        challengers = _challengers(gray, roi, origin, bank, aligned, top, camera)
         if challengers:
             top, runner_up = _decide(aligned + challengers, unaligned, bank, params, rivals)
     return top, runner_up
@@ -407,7 +406,7 @@ def _challengers(
     bank: TemplateBank,
     aligned: list[Aligned],
     top: Aligned,
-    frame_blur: Blur | None,
+    camera: FrameCamera | None,
 ) -> list[Aligned]:
     """The coarse match again, with the data area where the winner's alignment puts it (in its
     four turns: the winner's corner order need not be another tag's): the best
@@ -432,7 +431,7 @@ def _challengers(
         chosen += _best_tags(bank, scores[:, own], [views[own[0]]], MODEL_CHALLENGERS, taken)
     out: list[Aligned] = []
     for row, view, _ in chosen:
-        a = align(roi, origin, bank, row, view, frame_blur, converge=frame_blur is not None)
+        a = align(roi, origin, bank, row, view, camera, converge=camera is not None)
         if a is not None:
             out.append(a)
     return out

@@ -15,7 +15,7 @@ from ottag_db.core.lookup import MemoryLookup
 from ottag_db.core.types import Polarity
 from ottag_db.decode import Detector
 from ottag_db.decode.blur import BLURRED_MAX_MISFIT, NOMINAL_BLURS_PX, EdgeBlur, edge_blur
-from ottag_db.decode.camera_blur import Blur, measured_blurs, motion_kernel, refined_blur
+from ottag_db.decode.camera_blur import Blur, FrameCamera, measured_blurs, motion_kernel, refined_blur, sensor_noise
 from ottag_db.decode.model_align import View, fit_blur, judge, neighbourhood
 from ottag_db.decode.templates import template_bank
 from ottag_db.decode.types import Quad
@@ -254,4 +254,5 @@ def test_the_blur_fitted_in_a_dim_noisy_frame_is_the_defocus(printed, seed) -> N
     assert seen.correlation > 0.8  # the tag where it lies
     fitted = fit_blur(roi, origin, bank, seen, (Blur(2.0), Blur(2.7), Blur(3.4)))
     assert fitted is not None and abs(fitted.sigma - 2.5) <= 0.12 * 2.5, fitted
-    assert judge(roi, origin, bank, row, view, spec.homography, fitted).misfit <= BLURRED_MAX_MISFIT
+    camera = FrameCamera(fitted, sensor_noise(roi))
+    assert judge(roi, origin, bank, row, view, spec.homography, camera).misfit <= BLURRED_MAX_MISFIT

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector
 from ottag_db.decode.blur import BLURRED_MAX_MISFIT, BLURRED_MAX_MISFIT_NOISY, edge_blur
-from ottag_db.decode.camera_blur import Blur, sensor_noise
+from ottag_db.decode.camera_blur import Blur, FrameCamera, sensor_noise
 from ottag_db.decode.model_align import Aligned, View, judge, neighbourhood
 from ottag_db.decode.templates import template_bank
 from ottag_db.decode.types import Quad
@@ -74,7 +74,8 @@ def test_a_dim_tag_misfits_its_drawing_by_what_its_noise_leaves(printed, bundled
         judged = []
         for gray in (clean, noisy):
             roi, origin = neighbourhood(gray, [view.corners])
-            judged.append(judge(roi, origin, bank, row, view, spec.homography, Blur(2.5)))
+            camera = FrameCamera(Blur(2.5), sensor_noise(roi))
+            judged.append(judge(roi, origin, bank, row, view, spec.homography, camera))
         assert judged[0].misfit < 0.03
         assert judged[1].misfit <= judged[1].blurred_misfit_limit
         noisy_misfits.append(judged[1].misfit)
