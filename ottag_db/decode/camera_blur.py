@@ -99,24 +99,21 @@ def motion_kernel(length: float, angle_deg: float) -> NDArray[np.float32]:
         Odd square float32 kernel summing to 1.
     """
     size = math.ceil(length) | 1
-    kernel = np.zeros((size, size), np.float32)
     c = (size - 1) / 2
     half = length / 2
     dx, dy = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
-    for t in np.linspace(-half, half, 4 * size + 1):  # the segment, area-sampled
-        x, y = c + t * dx, c + t * dy
-        x0, y0 = math.floor(x), math.floor(y)
-        fx, fy = x - x0, y - y0
-        for xx, yy, w in (
-            (x0, y0, (1 - fx) * (1 - fy)),
-            (x0 + 1, y0, fx * (1 - fy)),
-            (x0, y0 + 1, (1 - fx) * fy),
-            (x0 + 1, y0 + 1, fx * fy),
-        ):
-            if 0 <= xx < size and 0 <= yy < size:
-                kernel[yy, xx] += w
-    total = float(kernel.sum())
-    return kernel / total if total > 0 else kernel
+    t = np.linspace(-half, half, 4 * size + 1)  # the segment, area-sampled (bilinear weights)
+    x, y = c + t * dx, c + t * dy
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = x - x0, y - y0
+    xs = np.concatenate([x0, x0 + 1, x0, x0 + 1]).astype(np.intp)
+    ys = np.concatenate([y0, y0, y0 + 1, y0 + 1]).astype(np.intp)
+    weights = np.concatenate([(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy])
+    inside = (xs >= 0) & (xs < size) & (ys >= 0) & (ys < size)
+    cells = np.bincount(ys[inside] * size + xs[inside], weights[inside], minlength=size * size)
+    kernel32 = cells.reshape(size, size).astype(np.float32)
+    total = float(kernel32.sum())
+    return kernel32 / total if total > 0 else kernel32
 
 
 def sensor_noise(image: NDArray[np.float32]) -> float:

@@ -307,10 +307,15 @@ def _joint_fit(
     return float(np.linalg.norm(mapped - points[1], axis=1).max()), placed
 
 
+#: The cyclic orders of four corners, either direction (a constant index table).
+_CYCLIC_ORDERS = np.array(
+    [np.roll(base, -r) for base in (np.arange(4), np.arange(4)[::-1]) for r in range(4)], dtype=np.intp
+)
+
+
 def _match_corners(corners: _F64, printed: _F64) -> NDArray[np.intp]:
     """For each measured corner the index of its printed corner: the cyclic assignment (either
     direction) of least total distance, which holds when corners are far off."""
-    orders = [np.roll(base, -r) for base in (np.arange(4), np.arange(4)[::-1]) for r in range(4)]
-    costs = [float(np.linalg.norm(corners - printed[order], axis=1).sum()) for order in orders]
-    best: NDArray[np.intp] = orders[int(np.argmin(costs))]
+    costs = np.linalg.norm(corners[None] - printed[_CYCLIC_ORDERS], axis=2).sum(axis=1)
+    best: NDArray[np.intp] = _CYCLIC_ORDERS[int(np.argmin(costs))].copy()
     return best
