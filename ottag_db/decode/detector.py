@@ -34,9 +34,10 @@ from ottag_db.decode.candidates import Binarization, find_quads, searches_at_hal
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import frame_departure, threshold_offset, to_gray
 from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_scores
-from ottag_db.decode.model_match import confirm_by_model, read_model, wants_model
+from ottag_db.decode.model_match import NOT_HELD, confirm_by_model, read_model, wants_model
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import (
+    Outlined,
     around_detection,
     in_frame_corners,
     outlined_before,
@@ -213,6 +214,9 @@ class Detector:
         # local threshold's outline (a look-alike, ρ 0.926, next 0.922); Otsu's outline then
         # read another look-alike unrivalled (ρ 0.933), now rivalled by the first.
         guesses: list[tuple[Quad, ModelGuess]] = []
+        # data areas whose points read an order type the lookup does not hold: their pieces (a
+        # triangle outlined as a quad) are not read by model, as a decoded tag's are not
+        held_out: list[Quad] = []
         departure: float | None = None
         for kind in passes:
             if kind == "otsu" and p.use_adaptive and detections and not p.otsu_always:
@@ -279,6 +283,8 @@ class Detector:
                 wanted = isinstance(result, Rejection) and wants_model(
                     quad, result, _RETRY_UPSAMPLED, p, edge_on, blurred is not None
                 )
+                if isinstance(result, Rejection) and result.reason in NOT_HELD:
+                    held_out.append(quad)
                 if isinstance(result, Rejection) and self._bank and wanted:
                     by_model.append((quad, result, blurred))
                     if blurred is not None:
@@ -290,8 +296,9 @@ class Detector:
             # last, and only off the tags this pass decoded (pieces of a tag are not tags), within
             # the pass's budget: to the candidates most like a printed tag
             bank = self._bank
-            queue = [entry for entry in by_model if not within_detection(entry[0], detections)]
-            rejected.extend(first.at(quad) for quad, first, _ in by_model if within_detection(quad, detections))
+            on_tags: list[Outlined] = [*detections, *held_out]
+            queue = [entry for entry in by_model if not within_detection(entry[0], on_tags)]
+            rejected.extend(first.at(quad) for quad, first, _ in by_model if within_detection(quad, on_tags))
             # ranked only when the pass's candidates outnumber its readings (a coarse match each,
             # measured already for a blurred one)
             ranked = bank is not None and len(queue) > p.model_max_reads

@@ -45,11 +45,9 @@ placement), so the image can *choose among the stored tags* instead (issue 13, s
    else, and always when soft-decoded, the candidate is read by model and refused when that
    reads another tag (a soft-decoded one also when it reads none; :func:`confirm_by_model`).
 
-The ID is still an order type: the image only chooses which stored one it shows, so a tag
-drawn with other triangles or another placement is not read this way. The detector runs this
-stage last, for a foreshortened or small candidate that no reading decoded
-(:func:`wants_model`), after the other readings of its candidate pass and only off the tags
-they decoded.
+The ID is still an order type: the image only chooses which stored one it shows (not a tag
+drawn otherwise). It runs last, for a foreshortened or small candidate no reading decoded
+(:func:`wants_model`), after its pass's other readings and off the tags they decoded.
 """
 
 from __future__ import annotations
@@ -61,12 +59,7 @@ from numpy.typing import NDArray
 
 from ottag_db.core.canonical import lambda_text
 from ottag_db.core.single_set import read_set
-from ottag_db.decode.blur import (
-    BLURRED_MIN_NOMINAL_CORRELATION,
-    BLURRED_MIN_SIDE,
-    EdgeBlur,
-    edge_blur,
-)
+from ottag_db.decode.blur import BLURRED_MIN_NOMINAL_CORRELATION, BLURRED_MIN_SIDE, EdgeBlur, edge_blur
 from ottag_db.decode.camera_blur import FrameCamera, measured_blurs, sensor_noise
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import Aligned, View, align, fit_blur, judge, neighbourhood, outline_views
@@ -78,7 +71,7 @@ from ottag_db.decode.reading import points_fit
 from ottag_db.decode.templates import TemplateBank, placement
 from ottag_db.decode.types import Detection, DetectorParams, ModelGuess, Quad, Rejection
 
-__all__ = ["MODEL_CANDIDATES", "MODEL_CHALLENGERS", "confirm_by_model", "read_model", "wants_model"]
+__all__ = ["MODEL_CANDIDATES", "MODEL_CHALLENGERS", "NOT_HELD", "confirm_by_model", "read_model", "wants_model"]
 
 _F64 = NDArray[np.float64]
 _F32 = NDArray[np.float32]
@@ -93,6 +86,10 @@ _QUARTER_TURNS = tuple(
     np.array([[c, -t, 0.5 - 0.5 * c + 0.5 * t], [t, c, 0.5 - 0.5 * t - 0.5 * c], [0, 0, 1.0]])
     for c, t in ((1, 0), (0, 1), (-1, 0), (0, -1))
 )
+#: Rejections after which a candidate is not read by model: its points read clearly (margin ≥
+#: ``min_margin_px``) an order type the lookup does not hold (or not in that polarity), a tag of
+#: another dictionary; by model, which chooses among stored tags only, its look-alike would read.
+NOT_HELD: frozenset[str] = frozenset({"unknown_id", "polarity_not_in_dictionary"})
 #: A coarse score below this cannot become a detection: the candidate is not refined.
 _MIN_COARSE = 0.35
 
@@ -121,13 +118,10 @@ def wants_model(
         ``rectify_max_ratio`` and data areas with a side under ``model_max_side_px`` are read
         by model.
     edge_on_pass : bool, optional
-        The candidate comes from a last-resort pass for data areas seen nearly edge-on
-        (``"adaptive_thin"``, ``"bright_holes"``, which run only on a frame that read nothing):
-        a foreshortened one refused as ``"low_contrast"`` is read by model too. A normal data
-        area at 86–87° is 4–6 px thin and dark up to its outline, its slivers blurred into the
-        quiet zone: inside the band that segmentation leaves out, nothing but dark shows. In
-        the other passes such quads are mostly thin dark strips of clutter (one frame in four
-        of benchmarks/decode_speed.py, 10–90 ms each by model).
+        From a last-resort pass for data areas seen nearly edge-on (``"adaptive_thin"``,
+        ``"bright_holes"``): a foreshortened one refused as ``"low_contrast"`` is read by model
+        too (a normal data area at 86–87° is 4–6 px thin, dark up to its outline; elsewhere such
+        quads are mostly thin dark strips of clutter, 10–90 ms each by model).
     blurred : bool, optional
         A blurred tag's candidate (:attr:`~ottag_db.decode.blur.EdgeBlur.blurred`): read by model
         at any size and view, ``"low_contrast"`` included (blur dims and merges triangles), and
@@ -136,9 +130,12 @@ def wants_model(
     Returns
     -------
     bool
+        Never after a rejection of :data:`NOT_HELD`.
     """
     if not params.model_match or (quad.inferred and not blurred):  # (an outline no quad: a hidden border)
         return False
+    if first.reason in NOT_HELD:
+        return False  # the points decide: a tag the lookup does not hold, not one of its look-alikes
     if blurred:
         return first.reason in retry_reasons or first.reason in ("no_triangles", "low_contrast")
     foreshortened = squeeze(quad) <= params.rectify_max_ratio

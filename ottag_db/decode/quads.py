@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -14,6 +15,7 @@ from ottag_db.decode.types import Detection, DetectorParams, Quad
 
 __all__ = [
     "OUTLINE_MOVED_PX",
+    "Outlined",
     "around_detection",
     "centres_inside",
     "clockwise",
@@ -78,6 +80,15 @@ def same_quad(a: Quad, b: Quad) -> bool:
     return math.sqrt((ax - bx) ** 2 + (ay - by) ** 2) < 0.15 * math.sqrt(max(a.area, b.area))
 
 
+class Outlined(Protocol):
+    """Anything with data-area corners: a :class:`~ottag_db.decode.types.Detection`, or a
+    :class:`~ottag_db.decode.types.Quad` whose points read a tag the lookup does not hold."""
+
+    @property
+    def corners(self) -> NDArray[np.float64]:
+        """``(4, 2)`` data-area corners, frame pixels."""
+
+
 def around_detection(quad: Quad, detections: list[Detection]) -> bool:
     """True when ``quad`` is centred on a tag already decoded and not smaller than its data area.
 
@@ -98,12 +109,13 @@ def around_detection(quad: Quad, detections: list[Detection]) -> bool:
     return False
 
 
-def within_detection(quad: Quad, detections: list[Detection]) -> bool:
+def within_detection(quad: Quad, detections: Sequence[Outlined]) -> bool:
     """True when the centre of ``quad`` lies on a decoded tag: inside its data area grown by the
     quiet zone ``export`` prints (0.25 of the side each way, so 1.5 × about its centre).
 
     Reading by model runs after a pass's other readings and skips such candidates: pieces of a
-    decoded tag (a triangle's outline, a slit) are not other tags.
+    decoded tag (a triangle's outline, a slit) are not other tags, nor are the pieces of a tag
+    whose points read an order type the lookup does not hold.
     """
     if not detections:
         return False

@@ -10,7 +10,7 @@ from ottag_db.core.lookup import LookupEntry, MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.candidates import HALF_RES_MIN_SIDE, find_quads
 from ottag_db.decode.model_align import align_outline, neighbourhood
-from ottag_db.decode.model_match import read_model, wants_model
+from ottag_db.decode.model_match import NOT_HELD, read_model, wants_model
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.segmentation import segment
@@ -116,6 +116,10 @@ def test_which_candidates_are_read_by_model() -> None:
     assert not wants_model(square, Rejection("low_contrast"), _REASONS, p, edge_on_pass=True)
     assert not wants_model(small, Rejection("low_contrast"), _REASONS, p, edge_on_pass=True)
     assert not wants_model(thin, Rejection("point_count"), _REASONS, DetectorParams(model_match=False))
+    # the points read clearly a tag the lookup does not hold: none of its look-alikes by model
+    for reason in NOT_HELD:
+        assert not wants_model(thin, Rejection(reason), _REASONS | NOT_HELD, p)
+        assert not wants_model(small, Rejection(reason), _REASONS | NOT_HELD, p, blurred=True)
 
 
 @pytest.mark.parametrize("seed", [0, 7])
