@@ -13,8 +13,9 @@ units, so its focal length is f pixels exactly; POV-Ray's left-handed frame (y u
 (y down) with y negated. A large grey wall 3 m behind the patch's centre fills the
 surroundings; one point light up and to the left of the camera and an ambient term light the
 scene (the patch casts no shadow on the wall); adaptive antialiasing (``+A0.05 +AM2 +R3``, no
-jitter). The texture is mapped to reflectances from ink (0.05) to paper (0.9); the pipeline is
-linear (gamma 1 in and out).
+jitter), or every pixel supersampled (``Renderer(..., antialias="full")``, :data:`ANTIALIAS`).
+The texture is mapped to reflectances from ink (0.05) to paper (0.9); the pipeline is linear
+(gamma 1 in and out).
 
 :class:`Renderer` renders a batch of scenes with at most two POV-Ray processes at once (one
 thread each), each in its own temporary folder, and keeps each frame as a PNG in a cache folder
@@ -59,6 +60,13 @@ LIGHT = (-0.4, 0.6, 0.0)
 INK, PAPER = 0.05, 0.9
 #: Render options: antialiasing (adaptive, threshold 0.05, depth 3, no jitter), one thread.
 OPTIONS = ("+A0.05", "+AM2", "+R3", "-J", "+WT1", "-D", "-V", "+FN8", "Display_Gamma=1.0", "File_Gamma=1.0")
+#: The antialiasing a :class:`Renderer` can use. ``"adaptive"`` (:data:`OPTIONS`): a pixel is
+#: supersampled only where the samples at its corners differ by more than 0.05, so a feature
+#: thinner than a pixel that falls between them is missed (a tag's triangles at a grazing view
+#: become slivers under a pixel wide, and whole stretches of them render as ink). ``"full"``:
+#: every pixel supersampled (threshold 0), as a camera integrates the light over each pixel's
+#: area; about 3× the render time.
+ANTIALIAS = {"adaptive": OPTIONS, "full": ("+A0.0", *OPTIONS[1:])}
 #: The black square's corners in texture coordinates (x right, y down; the patch, black square plus a
 #: white border of a quarter side, is the unit square).
 SQUARE = np.array([[1, 1], [5, 1], [5, 5], [1, 5]]) / 6
@@ -187,11 +195,12 @@ class Renderer:
     """POV-Ray frames of :class:`Scene` s seen by ``camera``, at most ``processes`` (≤ 2) renders at a
     time, cached in ``cache``."""
 
-    def __init__(self, cache: Path, processes: int = 2, camera: Camera = CAMERA) -> None:
+    def __init__(self, cache: Path, processes: int = 2, camera: Camera = CAMERA, antialias: str = "adaptive") -> None:
         if shutil.which("povray") is None:
             raise RuntimeError("POV-Ray is not installed (Debian: apt-get install -y povray)")
         self.cache = cache
         self.camera = camera
+        self.options = ANTIALIAS[antialias]  # (the cache key holds them: frames of each are kept apart)
         self.processes = max(1, min(2, processes))
         self.cache.mkdir(parents=True, exist_ok=True)
         self._pngs: dict[int, tuple[_U8, bytes, str]] = {}  # id -> (the texture, kept alive; PNG; hash)
@@ -207,7 +216,7 @@ class Renderer:
     def _one(self, scene: Scene) -> _U8:
         png, digest = self._png(scene.texture)
         source = scene_source("texture.png", scene.r_mat, scene.t, scene.side, self.camera, scene.height, scene.light)
-        key = hashlib.sha256("\n".join([source, digest, *OPTIONS]).encode()).hexdigest()[:32]
+        key = hashlib.sha256("\n".join([source, digest, *self.options]).encode()).hexdigest()[:32]
         path = self.cache / f"{key}.png"
         if not path.exists():
             with tempfile.TemporaryDirectory(prefix="povray-") as tmp:
@@ -215,7 +224,7 @@ class Renderer:
                 (folder / "texture.png").write_bytes(png)
                 (folder / "scene.pov").write_text(source, encoding="utf-8")
                 size = (f"+W{self.camera.width}", f"+H{self.camera.height}")
-                cmd = ["povray", "+Iscene.pov", "+Oframe.png", *size, *OPTIONS]
+                cmd = ["povray", "+Iscene.pov", "+Oframe.png", *size, *self.options]
                 done = subprocess.run(cmd, cwd=folder, capture_output=True, text=True)
                 if done.returncode != 0 or not (folder / "frame.png").exists():
                     raise RuntimeError(f"povray failed ({done.returncode}): {done.stderr[-800:]}")
