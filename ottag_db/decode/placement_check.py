@@ -311,6 +311,7 @@ def _joint_fit(
 _CYCLIC_ORDERS = np.array(
     [np.roll(base, -r) for base in (np.arange(4), np.arange(4)[::-1]) for r in range(4)], dtype=np.intp
 )
+_CYCLIC_ORDERS.flags.writeable = False
 
 
 def _match_corners(corners: _F64, printed: _F64) -> NDArray[np.intp]:

@@ -21,14 +21,8 @@ from ottag_db.decode.templates import template_bank
 from ottag_db.decode.types import Quad
 from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
-from tests.support.grazing import printed_tags
 
 _UNIT = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 def _motion(image: np.ndarray, length: int, angle: float) -> np.ndarray:

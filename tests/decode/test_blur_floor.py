@@ -20,16 +20,9 @@ from ottag_db.decode.blur import (
 )
 from ottag_db.decode.templates import RANKING_GRID
 from ottag_db.decode.types import Quad
-from ottag_db.printing.scenes import DrawableTag
 from tests.decode.test_blur import _frame
-from tests.support.grazing import printed_tags
 
 _NORMALS = np.eye(2)[[0, 1, 0, 1]]
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 def test_noisy_sides_scatter_and_their_scatter_lets_a_pair_differ(printed) -> None:

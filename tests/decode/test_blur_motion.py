@@ -16,16 +16,9 @@ from ottag_db.decode import Detector
 from ottag_db.decode.blur import BLURRED_MIN_SIDE, EdgeBlur
 from ottag_db.decode.model_budget import around_blurred, rank_for_model
 from ottag_db.decode.types import Quad
-from ottag_db.printing.scenes import DrawableTag
 from tests.decode.test_blur import _frame
-from tests.support.grazing import printed_tags
 
 _NORMALS = np.eye(2)[[0, 1, 0, 1]]
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 @pytest.mark.parametrize("angle", [0.0, 20.0, 45.0, 70.0, 90.0])

@@ -6,7 +6,6 @@ import cv2
 import numpy as np
 import pytest
 
-from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams, candidates
 from ottag_db.decode.blur import edge_blur
 from ottag_db.decode.camera_blur import motion_kernel
@@ -15,7 +14,6 @@ from ottag_db.decode.image import DIM_OFFSET_MIN, frame_departure, threshold_off
 from ottag_db.decode.quads import clockwise, squeeze
 from ottag_db.decode.types import Quad
 from ottag_db.printing import scenes as sc
-from ottag_db.printing.scenes import DrawableTag
 from tests.support import synthetic_tags as syn
 from tests.support.grazing import grazing_corners, grazing_frame, printed_tags
 
@@ -68,11 +66,6 @@ def test_the_bright_holes_pass_finds_foreshortened_normal_data_areas_only() -> N
     assert not any(q.corners[:, 1].min() > 160 for q in found)  # not the head-on square
     miss = [float(np.abs(np.sort(q.corners, axis=0) - np.sort(area, axis=0)).max()) for q in found]
     assert min(miss) < 3.0
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 def _corner_miss(quad: Quad, corners: np.ndarray) -> float:

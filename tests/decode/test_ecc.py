@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode.ecc import FIRST_STEPS, PROMISING_CORRELATION, ecc
@@ -12,12 +11,6 @@ from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 from ottag_db.printing import clutter
 from ottag_db.printing import scenes as sc
 from ottag_db.printing.scenes import DrawableTag
-from tests.support.grazing import printed_tags
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 def _triangles(tag: DrawableTag) -> np.ndarray:

@@ -8,21 +8,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.model_budget import rank_for_model, ranking_score, ranking_scores
 from ottag_db.printing import scenes as sc
-from ottag_db.printing.scenes import DrawableTag
-from tests.support.grazing import printed_tags
 
 _READ_BY_MODEL = "by model: ρ"  # what a refused reading by model adds to its rejection's detail
 _PASSED_OVER = "not read by model"
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 @given(st.lists(st.floats(-1, 1), max_size=30), st.integers(0, 8))

@@ -17,15 +17,9 @@ from ottag_db.decode.segmentation import segment
 from ottag_db.decode.templates import MODEL_GRID, draw_through, rasterize, template_bank
 from ottag_db.decode.types import Detection, ModelGuess, Quad, Rejection
 from ottag_db.printing import scenes as sc
-from ottag_db.printing.scenes import DrawableTag
-from tests.support.grazing import grazing_corners, grazing_frame, grazing_set, printed_tags
+from tests.support.grazing import grazing_corners, grazing_frame, grazing_set
 
 _REASONS = frozenset({"non_triangle", "point_count", "low_margin", "verification"})
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 def test_rasterize_gives_the_covered_fraction_of_each_cell() -> None:

@@ -3,20 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector
 from ottag_db.decode.quads import within_detection
 from ottag_db.decode.types import Quad
 from ottag_db.printing import scenes as sc
-from ottag_db.printing.scenes import DrawableTag
-from tests.support.grazing import printed_tags
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    return printed_tags(bundled_db_path)
 
 
 def test_a_tag_the_lookup_does_not_hold_is_not_read_by_model(printed) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector, DetectorParams
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.profile import StageClock
@@ -13,17 +12,10 @@ from ottag_db.decode.quads import squeeze
 from ottag_db.decode.rectify import read_rectified, rectified_view, wants_rectified
 from ottag_db.decode.types import Quad, Rejection
 from ottag_db.printing import scenes as sc
-from ottag_db.printing.scenes import DrawableTag
-from tests.support.grazing import grazing_frame, grazing_set, printed_tags
+from tests.support.grazing import grazing_frame, grazing_set
 
 #: The retry's own reasons (as the detector's set after a decomposition was found).
 _REASONS = frozenset({"non_triangle", "point_count", "low_margin", "verification"})
-
-
-@pytest.fixture(scope="module")
-def printed(bundled_db_path) -> tuple[MemoryLookup, list[DrawableTag]]:
-    """Lookup (k = 5 … 8) and the 24 k = 8 tags of largest MP as ``export`` draws them."""
-    return printed_tags(bundled_db_path)
 
 
 #: The rectified retry alone: reading by model (the stage after it) is tested in test_model_match.
