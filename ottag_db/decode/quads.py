@@ -241,7 +241,8 @@ def reading_order(quads: Sequence[Quad]) -> list[tuple[int, int | None]]:
 def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
     """Whether an earlier binarization of the frame found this candidate already.
 
-    A data area found again (:func:`same_quad`) is not read twice, except a foreshortened one
+    A data area found again (:func:`same_quad`) is not read twice, except where only an
+    inferred outline (:attr:`~ottag_db.decode.types.Quad.inferred`) found it before, and a foreshortened one
     (:func:`squeeze` at most ``max_ratio``) whose new outline has a corner
     ``OUTLINE_MOVED_PX`` or more from every corner of the earlier one. Nearly edge-on, a data
     area is a few pixels thin and each threshold moves its outline by a good part of that: the
@@ -262,7 +263,10 @@ def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
     -------
     bool
     """
-    twins = _twins(quad, seen)
+    # an outline inferred from a hidden or cut border (whose reading must show the print) does
+    # not stand in for a later binarization's whole outline of the data area, which the points
+    # may decide (a corner 2 px inside the frame's edge: the local threshold's quad reached it)
+    twins = [o for o in _twins(quad, seen) if quad.inferred or not o.inferred]
     if not twins:
         return False
     if squeeze(quad) > max_ratio:

@@ -445,9 +445,12 @@ def test_a_small_reading_off_its_points_is_refused_when_the_model_reads_another_
         dets, rejected = det.detect_with_rejections(image)
         assert [d.lambda_text for d in dets if d.lambda_text != lam] == []
         disputes = [r for r in rejected if r.reason == "verification" and "by model" in r.detail]
-        assert len(disputes) == 1
-        assert disputes[0].lambda_text is not None and disputes[0].lambda_text.startswith("7:")
-        assert f"by model {lam}" in disputes[0].detail
+        # (each outline of the data area that reads so: one inferred from its sides' lines, then
+        # the whole one of a later binarization, which it does not stand in for)
+        assert 1 <= len(disputes) <= 2
+        for dispute in disputes:
+            assert dispute.lambda_text is not None and dispute.lambda_text.startswith("7:")
+            assert f"by model {lam}" in dispute.detail
 
 
 @pytest.mark.parametrize(

@@ -143,3 +143,17 @@ def test_without_pieces_the_order_is_smallest_first_in_the_passs_order(boxes: li
     if all(holder is None for _, holder in order):
         assert [i for i, _ in order] == sorted(range(len(quads)), key=lambda i: quads[i].area)
     assert sorted(i for i, _ in order) == list(range(len(quads)))
+
+
+def test_an_inferred_outline_does_not_stand_in_for_a_whole_one() -> None:
+    """A data area outlined only from its visible sides (a corner on the frame's edge: its
+    reading must show the print) is read again when a later binarization outlines it whole, so
+    that the points can decide; a whole outline stands in for a later one of either kind."""
+    corners = np.array([[100.0, 100.0], [260.0, 110.0], [250.0, 270.0], [95.0, 260.0]])
+    area = float(abs(cv2.contourArea(corners.astype(np.float32))))
+    whole = Quad("inverted", corners, area)
+    inferred = Quad("inverted", corners + 0.5, area, inferred=True)
+    ratio = DetectorParams().rectify_max_ratio
+    assert not seen_before(whole, [inferred], ratio)
+    assert seen_before(inferred, [inferred], ratio)
+    assert seen_before(whole, [whole], ratio) and seen_before(inferred, [whole], ratio)
