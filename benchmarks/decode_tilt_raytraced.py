@@ -1,6 +1,6 @@
 """Ray-traced tilt sweep at 1.5 m: reads per 10° band to 85°, ours beside ArUco and AprilTag 3.
 
-Usage: python benchmarks/decode_tilt_raytraced.py [--per-band N] [--seed S] [--cache DIR]
+Usage: python benchmarks/decode_tilt_raytraced.py [--per-band N] [--seed S] [--min-tilt DEG] [--cache DIR]
        [--antialias {adaptive,full}] [--quiet]
 
 POV-Ray (``benchmarks/povray.py``; Debian: ``apt-get install povray``) ray-traces the scenes of
@@ -61,10 +61,13 @@ def tilts(per_band: int, seed: int) -> list[tuple[int, float, tuple[float, float
     return out
 
 
-def main(per_band: int, seed: int, cache_dir: Path | None, quiet: bool, antialias: str = "adaptive") -> None:
+def main(
+    per_band: int, seed: int, cache_dir: Path | None, quiet: bool, antialias: str = "adaptive", min_tilt: float = 0.0
+) -> None:
     from pupil_apriltags import Detector as AprilTagDetector
 
-    poses = tilts(per_band, seed)
+    # the bands from min_tilt on, with the poses a whole sweep of this seed draws there
+    poses = [pose_ for pose_ in tilts(per_band, seed) if BANDS[pose_[0]][0] >= min_tilt]
     with tempfile.TemporaryDirectory() as tmp:
         det, tag_id, ours = our_textures(Path(tmp), None)
         textures = {("ours", pol): ours[pol] for pol in POLARITIES}
@@ -97,6 +100,8 @@ def main(per_band: int, seed: int, cache_dir: Path | None, quiet: bool, antialia
             print(f"| tilt | {' | '.join(COLUMNS)} | wrong IDs (ours / ArUco / AprilTag) | ours ≥ each peer |")
             print("|---|---|---|---|---|---|---|")
             for band, (lo, hi) in enumerate(BANDS):
+                if lo < min_tilt:
+                    continue
                 reads = dict.fromkeys(COLUMNS, 0)
                 wrong = dict.fromkeys(COLUMNS, 0)
                 for i, (b, _, _) in enumerate(poses):
@@ -139,9 +144,12 @@ if __name__ == "__main__":
     parser.add_argument(
         "--antialias", choices=("adaptive", "full"), default="adaptive", help="POV-Ray antialiasing (default adaptive)"
     )
+    parser.add_argument(
+        "--min-tilt", type=float, default=0.0, help="only the bands from this tilt on (degrees; default 0: all)"
+    )
     parser.add_argument("--cache", type=Path, help="folder of rendered frames, kept for reruns (default: temporary)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
     args = parser.parse_args()
     if args.per_band < 1:
         parser.error("--per-band must be at least 1")
-    main(args.per_band, args.seed, args.cache, args.quiet, args.antialias)
+    main(args.per_band, args.seed, args.cache, args.quiet, args.antialias, args.min_tilt)
