@@ -98,7 +98,7 @@ RANGE_MAX_QUADS = 8
 #: triangles (:func:`_triangle_holders`), whose holes are not outlined by lines as inverted data
 #: areas. An inverted data area is one hole of its quiet zone; a bar across it or a triangle
 #: merged with the quiet zone nearly edge-on cuts it in two, whose larger piece the lines can
-#: still outline. On frames with one tag the lines outlines of its triangles took 6 % of the
+#: still outline. On frames with one tag the lines outlines of its triangles took 7 % of the
 #: instructions (``benchmarks/decode_speed.py``'s frames under ``valgrind --tool=callgrind``),
 #: for quads read only when the tag did not read; the same tags read.
 TRIANGLE_HOLDER_MIN_HOLES = 3
