@@ -139,7 +139,9 @@ def main(poses: int, seed: int, save: str | None = None) -> None:
                 frame = scenes.render_scene((480, 640), [spec], np.random.default_rng(frame_seed)).image
                 frame = _degrade(_hide(frame, hom, poly, grey), blur, noise, np.random.default_rng(frame_seed))
                 if save:
-                    cv2.imwrite(f"{save}/{case.replace(' ', '_')}_{polarity}_{i}.png", frame)
+                    path = f"{save}/{case.replace(' ', '_')}_{polarity}_{i}.png"
+                    if not cv2.imwrite(path, frame):
+                        sys.exit(f"error: could not write {path}")
                 dets = det.detect(frame)
                 hit = [d for d in dets if d.lambda_text == tag.lambda_text]
                 wrong += len(dets) - len(hit)
@@ -170,4 +172,9 @@ if __name__ == "__main__":
     args = parser.parse_args()
     if args.poses < 1:
         parser.error("--poses must be at least 1")
+    if args.save:
+        try:
+            Path(args.save).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            parser.error(f"--save: cannot make the folder {args.save} ({exc.strerror})")
     main(args.poses, args.seed, args.save)

@@ -152,4 +152,6 @@ if __name__ == "__main__":
     args = parser.parse_args()
     if args.per_band < 1:
         parser.error("--per-band must be at least 1")
+    if not 0 <= args.min_tilt <= BANDS[-1][0]:
+        parser.error(f"--min-tilt must lie in 0–{BANDS[-1][0]} (the last band starts there)")
     main(args.per_band, args.seed, args.cache, args.quiet, args.antialias, args.min_tilt)

@@ -95,7 +95,7 @@ NOTCHED_MIN_FILL = 0.6
 #: at 640×480, 19 gave it 0–8 quads, brick 54.
 RANGE_MAX_QUADS = 8
 #: A dark quad region holding at least this many bright holes is a normal data area holding its
-#: triangles (:func:`_triangle_holders`), whose holes are not outlined by lines as inverted data
+#: triangles (:func:`_holds_triangles`), whose holes are not outlined by lines as inverted data
 #: areas. An inverted data area is one hole of its quiet zone; a bar across it or a triangle
 #: merged with the quiet zone nearly edge-on cuts it in two, whose larger piece the lines can
 #: still outline. On frames with one tag the lines outlines of its triangles took 7 % of the
@@ -201,9 +201,8 @@ def find_quads(
         return quads
     parents = hier[0][:, 3]
     # (contour, inverted, its length in px, its first hole or -1: a dark region with bright
-    # holes holds triangles, maybe; whether it is a triangle of a data area outlined as a quad)
-    outlines: list[tuple[NDArray[Any], bool, float, int, bool]] = []
-    holders = _triangle_holders(contours, hier[0], min_len) if kind != "bright_holes" else frozenset()
+    # holes holds triangles, maybe; the dark region a bright hole lies in, or -1)
+    outlines: list[tuple[NDArray[Any], bool, float, int, int]] = []
     for i, c in enumerate(contours):
         if len(c) < min_len:
             continue
@@ -214,18 +213,19 @@ def find_quads(
             inverted = False  # a dark hole in a bright quiet zone: a normal data area
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
-        outlines.append((c, inverted, len(c), int(hier[0][i][2]), inverted and int(parents[i]) in holders))
+        outlines.append((c, inverted, len(c), int(hier[0][i][2]), int(parents[i]) if inverted else -1))
     if kind in _LOCAL_PASSES and want_inverted and p.outline_by_lines:
-        outlines.extend((c, True, len(c), -1, False) for c in holes_at_frame_edge(mask, min_len))
+        outlines.extend((c, True, len(c), -1, -1) for c in holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
     joined_inverted = kind == "adaptive_thin"
     if kind in ("adaptive_thin", "bright_holes") and (want_inverted if joined_inverted else want_normal):
         hulls = _joined_holes(contours, hier[0], min_len)
-        outlines.extend((hull, joined_inverted, cv2.arcLength(hull, True), -1, False) for hull in hulls)
+        outlines.extend((hull, joined_inverted, cv2.arcLength(hull, True), -1, -1) for hull in hulls)
     # (outline, inverted, length, first hole, its quad, outlined by lines, an opened ring)
     shaped: list[tuple[NDArray[Any], bool, float, int, NDArray[Any] | None, bool, bool]] = []
-    for c, inverted, perimeter, first_hole, a_triangle in outlines:
+    holders: dict[int, bool] = {}  # per dark region asked: whether its holes are a data area's triangles
+    for c, inverted, perimeter, first_hole, region in outlines:
         holds_holes = first_hole >= 0
         approx = _quad_outline(c, perimeter)
         if approx is None and kind in ("adaptive_thin", "local_range") and not inverted:
@@ -236,7 +236,11 @@ def find_quads(
         # triangles first: only a dark region holding bright holes is a normal data area (an
         # inverted one, a hole itself, holds separate regions: its solidity decides below)
         opened = lines and not inverted and not holds_holes and want_inverted
-        lines = lines and (inverted or holds_holes) and not a_triangle
+        lines = lines and (inverted or holds_holes)
+        if lines and region >= 0:  # a bright hole: one of a data area's triangles?
+            if region not in holders:
+                holders[region] = _holds_triangles(contours, hier[0], region, min_len)
+            lines = not holders[region]
         if approx is not None or lines or opened:
             shaped.append((c, inverted, perimeter, first_hole, approx, lines, opened))
     # outlines by lines within the pass's budget (LINES_MAX_OUTLINES): the largest regions
@@ -273,7 +277,7 @@ def find_quads(
         # plain Python on the 4 corners (numpy reductions cost more than they save here)
         (ax, ay), (bx, by), (cx, cy), (dx, dy) = q.tolist()
         at_edge = sum(x < 2 or y < 2 or x > w - 3 or y > h - 3 for x, y in ((ax, ay), (bx, by), (cx, cy), (dx, dy)))
-        if at_edge and not lines and _touches_edge(c, mask.shape):  # (a quad of runs may reach beyond the frame)
+        if at_edge and not lines and at_frame_edge(c, mask.shape, 0):  # (a quad of runs may reach beyond the frame)
             if at_edge > 1 or not (inverted or first_hole >= 0):
                 continue  # a region the frame's edge cuts, no data area holding its triangles
             # one corner on the frame's edge, maybe beyond it by a few px: a data area seen whole
@@ -312,35 +316,30 @@ def _range_mask(src: NDArray[Any], block: int, min_range: float) -> NDArray[Any]
     return np.asarray(cv2.bitwise_and(cv2.compare(src, midpoint, cv2.CMP_LT), contrasted))
 
 
-def _touches_edge(contour: NDArray[Any], shape: tuple[int, ...]) -> bool:
-    """Whether an outline reaches the outermost pixels of the image it was traced in: a region
-    the frame's edge may cut (one that stays inside is seen whole, however near the edge)."""
-    xy = contour.reshape(-1, 2)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
-    return bool(lo[0] <= 0 or lo[1] <= 0 or hi[0] >= shape[1] - 1 or hi[1] >= shape[0] - 1)
-
-
-def _triangle_holders(contours: Sequence[NDArray[Any]], hierarchy: NDArray[np.int32], min_len: float) -> frozenset[int]:
-    """The dark regions (``RETR_CCOMP`` indices) that outline a normal data area holding its
+def _holds_triangles(
+    contours: Sequence[NDArray[Any]], hierarchy: NDArray[np.int32], region: int, min_len: float
+) -> bool:
+    """Whether a dark region (``RETR_CCOMP`` index) outlines a normal data area holding its
     triangles: a convex quad outline of at least ``min_len`` points around at least
     :data:`TRIANGLE_HOLDER_MIN_HOLES` and at most
     :data:`~ottag_db.decode.segmentation.MAX_TRIANGLES` bright holes (specks of under 4 contour
     points left out).
 
-    Their holes are a tag's triangles, not an inverted data area whose border is partly hidden:
+    Its holes are a tag's triangles, not an inverted data area whose border is partly hidden:
     :func:`find_quads` does not outline them by lines (an inverted data area is one hole of its
     quiet zone, or two where a bar or a merged triangle cuts it).
     """
-    parents = hierarchy[:, 3]
-    if not (parents >= 0).any():
-        return frozenset()
-    # holes of 4 points or more per region
-    sizes = np.fromiter((len(c) for c in contours), dtype=np.int64, count=len(contours))
-    real = (parents >= 0) & (sizes >= 4)
-    holes_per_region = np.bincount(parents[real], minlength=len(contours))
-    regions = np.flatnonzero((holes_per_region >= TRIANGLE_HOLDER_MIN_HOLES) & (holes_per_region <= MAX_TRIANGLES))
-    long_enough = (r for r in regions.tolist() if len(contours[r]) >= min_len)
-    return frozenset(r for r in long_enough if _quad_outline(contours[r], len(contours[r])) is not None)
+    if len(contours[region]) < min_len:
+        return False
+    count = 0
+    child = int(hierarchy[region][2])
+    while child >= 0:
+        if len(contours[child]) >= 4:
+            count += 1
+            if count > MAX_TRIANGLES:
+                return False
+        child = int(hierarchy[child][0])
+    return count >= TRIANGLE_HOLDER_MIN_HOLES and _quad_outline(contours[region], len(contours[region])) is not None
 
 
 def _holes(contours: Sequence[NDArray[Any]], hierarchy: NDArray[np.int32], first: int) -> list[NDArray[Any]]:

@@ -315,11 +315,13 @@ def data_area_inside(quiet: NDArray[Any]) -> NDArray[Any] | None:
     return inner.astype(np.float32).reshape(4, 1, 2) if np.isfinite(inner).all() else None
 
 
-def at_frame_edge(quad: NDArray[Any], shape: tuple[int, ...]) -> bool:
-    """Whether a corner of ``quad`` (``(4, 1, 2)``) lies on the frame's outermost pixels."""
-    q = quad.reshape(4, 2)
+def at_frame_edge(points: NDArray[Any], shape: tuple[int, ...], within: int = 1) -> bool:
+    """Whether a point of ``points`` (a quad's corners or a contour, ``(n, 1, 2)``) lies within
+    ``within`` px of the frame's outermost pixels (0: on them)."""
+    q = points.reshape(-1, 2)
     h, w = shape[:2]
-    return bool((q.min(axis=0) <= 1).any() or q[:, 0].max() >= w - 2 or q[:, 1].max() >= h - 2)
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    return bool((lo <= within).any() or hi[0] >= w - 1 - within or hi[1] >= h - 1 - within)
 
 
 def _lines_quad(lines: Sequence[_Run]) -> NDArray[Any] | None:
