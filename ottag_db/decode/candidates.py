@@ -15,6 +15,7 @@ from ottag_db.decode.image import DIM_SMOOTHING_PX, frame_departure, threshold_o
 from ottag_db.decode.outlines import (
     SPIKE_MAX_HOLES,
     at_frame_edge,
+    cut_by_frame_only,
     data_area_inside,
     holes_at_frame_edge,
     lines_outline,
@@ -267,6 +268,7 @@ def find_quads(
             inverted = lines = approx is not None
         if approx is None:
             continue
+        outline = approx  # (at the mask's scale)
         q = approx.reshape(4, 2).astype(np.float64)
         if f != 1:
             q = q * f + 0.5 * (f - 1)
@@ -295,7 +297,8 @@ def find_quads(
         ):
             continue
         polarity: Polarity = "inverted" if inverted else "normal"
-        cand = Quad(polarity, clockwise(q), area, inferred=lines)
+        frame_cut = lines and cut_by_frame_only(c, outline, mask.shape)  # the points may decide
+        cand = Quad(polarity, clockwise(q), area, inferred=lines, frame_cut=frame_cut)
         if kind == "bright_holes" and squeeze(cand) > p.rectify_max_ratio:
             continue
         if not any(same_quad(cand, o) for o in quads):

@@ -85,7 +85,8 @@ def identify(
     occluded : bool, optional
         Something crossed the data area's border (:attr:`~ottag_db.decode.types.DataArea.intrusions`):
         whatever the ID, the tag must show its print at any view (so must a quad whose corners
-        were inferred, :attr:`~ottag_db.decode.types.Quad.inferred`).
+        were inferred, :attr:`~ottag_db.decode.types.Quad.inferred`, unless only the frame's
+        edge cut it, :attr:`~ottag_db.decode.types.Quad.frame_cut`).
 
     Returns
     -------
@@ -102,7 +103,7 @@ def identify(
         the stored placement prints them.
     """
     p = catalogue.params
-    occluded = occluded or quad.inferred
+    occluded = occluded or (quad.inferred and not quad.frame_cut)
     k = len(pts)
     if k < 3 or k > LAYOUT_MAX_K or (k not in catalogue.ks and not p.allow_unknown):
         return Rejection("point_count", f"{k} points")

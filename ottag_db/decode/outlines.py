@@ -24,11 +24,14 @@ from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, squar
 from ottag_db.decode.quads import clockwise
 
 __all__ = [
+    "FRAME_CUT_INNER_MARGIN",
+    "FRAME_CUT_TOLERANCE",
     "LINES_MIN_SOLIDITY",
     "LINES_MIN_SUPPORT",
     "SPIKE_MAX_HOLES",
     "SPIKE_RADIUS",
     "at_frame_edge",
+    "cut_by_frame_only",
     "data_area_inside",
     "holes_at_frame_edge",
     "lines_outline",
@@ -84,6 +87,19 @@ _SPIKE_MIN_HOLE = 4
 #: regions of foliage, gravel and text hold hundreds to thousands, whose hull is most of the
 #: frame.
 SPIKE_MAX_HOLES = 64
+#: A data area whose outline only the frame's edge cuts is read as seen whole, its points
+#: deciding (:func:`cut_by_frame_only`), when the square this fraction of the side inside its
+#: border lies in the frame: no triangle can then lie wholly beyond the edge unless all three
+#: of its vertices lie within this of the border. The project prints them a tenth of the side
+#: inside (:data:`~ottag_db.core.placement.DEFAULT_INNER_MARGIN`); a triangle that the edge
+#: cuts is left out of the data area (:mod:`~ottag_db.decode.segmentation`), and the reading
+#: must then show the print.
+FRAME_CUT_INNER_MARGIN = 0.04
+#: … and when every point of its outline off the frame's edge lies within this fraction of
+#: the side (1.5 px at least) of the quad's sides: a finger, bar or covered corner moves the
+#: outline by 4 % of the side or more (the occluders of benchmarks/decode_occlusion.py),
+#: the pixel steps and blur of a traced outline by a px or two.
+FRAME_CUT_TOLERANCE = 0.025
 #: A run of collinear outline edges: (support px, a point x, y, direction x, y, first edge).
 _Run = tuple[float, float, float, float, float, int]
 
@@ -322,6 +338,48 @@ def at_frame_edge(points: NDArray[Any], shape: tuple[int, ...], within: int = 1)
     h, w = shape[:2]
     lo, hi = q.min(axis=0), q.max(axis=0)
     return bool((lo <= within).any() or hi[0] >= w - 1 - within or hi[1] >= h - 1 - within)
+
+
+def cut_by_frame_only(contour: NDArray[Any], quad: NDArray[Any], shape: tuple[int, ...]) -> bool:
+    """Whether the frame's edge is all that hides part of the data area ``quad`` outlined by
+    ``contour``: its inner square (:data:`FRAME_CUT_INNER_MARGIN`) lies in the frame and the
+    outline off the frame's edge follows the quad's sides (:data:`FRAME_CUT_TOLERANCE`).
+
+    Parameters
+    ----------
+    contour : numpy.ndarray
+        ``(n, 1, 2)`` outline of the region (pixels of a frame of ``shape``).
+    quad : numpy.ndarray
+        ``(4, 1, 2)`` or ``(4, 2)`` corners inferred for it, in order around it.
+    shape : tuple of int
+        The frame's ``(H, W)``.
+
+    Returns
+    -------
+    bool
+        True when the reading's points may decide as for a data area seen whole.
+    """
+    h, w = shape[:2]
+    corners = quad.reshape(4, 2).astype(np.float64)
+    to_frame = square_homography(clockwise(corners))
+    if to_frame is None:
+        return False
+    m = FRAME_CUT_INNER_MARGIN
+    inner = apply_homography(to_frame, m + (1 - 2 * m) * UNIT_SQUARE)
+    if not np.isfinite(inner).all() or inner.min() < 0 or (inner[:, 0] > w - 1).any() or (inner[:, 1] > h - 1).any():
+        return False
+    pts = contour.reshape(-1, 2).astype(np.float64)
+    off_edge = (pts[:, 0] > 1) & (pts[:, 1] > 1) & (pts[:, 0] < w - 2) & (pts[:, 1] < h - 2)
+    pts = pts[off_edge]
+    if not len(pts):
+        return False
+    # distance of each outline point to the nearest of the quad's sides (segments)
+    a, b = corners, np.roll(corners, -1, axis=0)
+    ab = b - a
+    t = np.clip(np.einsum("nkd,kd->nk", pts[:, None, :] - a, ab) / np.einsum("kd,kd->k", ab, ab), 0.0, 1.0)
+    gap = np.linalg.norm(pts[:, None, :] - (a + t[..., None] * ab), axis=2).min(axis=1)
+    side = math.sqrt(abs(float(cv2.contourArea(corners.astype(np.float32)))))
+    return bool(gap.max() <= max(1.5, FRAME_CUT_TOLERANCE * side))
 
 
 def _lines_quad(lines: Sequence[_Run]) -> NDArray[Any] | None:

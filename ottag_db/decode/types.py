@@ -73,18 +73,9 @@ REJECTION_REASONS: dict[RejectReason, str] = {
 
 #: The stages timed by :meth:`ottag_db.decode.Detector.detect_with_report`, in pipeline order.
 StageName = Literal[
-    "image",
-    "candidates",
-    "segmentation",
-    "triangles",
-    "refine",
-    "cluster",
-    "identify",
-    "verify",
-    "upsample",
-    "rectify",
-    "model",
-]
+    "image", "candidates", "segmentation", "triangles", "refine", "cluster",
+    "identify", "verify", "upsample", "rectify", "model",
+]  # fmt: skip
 STAGES: tuple[StageName, ...] = get_args(StageName)
 
 
@@ -398,12 +389,15 @@ class Quad:
     """A candidate data area: ``corners`` ``(4, 2)`` clockwise on screen (image pixels,
     starting nearest the image origin), its ``area`` (px²) and the ``polarity`` it was found in;
     ``inferred``: its outline was no quad (partly hidden, or cut by the frame's edge) and the
-    corners were inferred from the visible sides, so a reading must show the tag as printed."""
+    corners were inferred from the visible sides, so a reading must show the tag as printed —
+    unless ``frame_cut``: only the frame's edge hides a sliver of its border, no triangle
+    (:func:`~ottag_db.decode.outlines.cut_by_frame_only`), and its points decide."""
 
     polarity: Polarity
     corners: _F64
     area: float
     inferred: bool = False
+    frame_cut: bool = False
 
 
 @dataclass(frozen=True)

@@ -105,3 +105,34 @@ def test_verified_a_large_oblique_view_of_another_drawing_reads(foreign, polarit
         read += got == [tag.lambda_text]
         assert without.detect(image) == []
     assert read >= 2
+
+
+@pytest.mark.parametrize("polarity", ["normal", "inverted"])
+def test_another_drawing_at_the_frames_edge_reads_from_its_points(foreign, polarity):
+    """Another drawing whose corner lies 1–3 px beyond the frame's edge: only the frame hides a
+    sliver of its border, no triangle, so its points decide as for a border seen whole (refused
+    before as a partly hidden data area that must show its print: none of the 6 in either
+    polarity read). With the drawn order types missing from the lookup nothing reads there."""
+    lookup, drawn = foreign
+    strict = Detector(lookup)
+    missing = {t.lambda_text for t in drawn}
+    without = Detector(MemoryLookup(e for e in lookup if e.lambda_text not in missing))
+    unit = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    read = tried = 0
+    for i, tag in enumerate(drawn * 2):
+        spec = sc.posed_spec(tag, np.random.default_rng(20 + i), 200.0, 25.0, polarity)
+        truth = sc.project(spec.homography, unit)
+        left = int(truth[:, 0].argmin())
+        if np.sort(truth[:, 0])[1] - truth[left, 0] < 15:
+            continue  # square to the frame's axes: a whole side would lie along the edge
+        beyond = 1.0 + i % 3
+        shift = np.array([[1.0, 0, -beyond - truth[left, 0]], [0, 1, 0], [0, 0, 1]])
+        moved = sc.TagSpec(spec.points, spec.triangles, shift @ spec.homography, polarity,
+                           lambda_text=spec.lambda_text, placement=spec.placement)  # fmt: skip
+        image = sc.render_scene((480, 640), [moved], np.random.default_rng(i), blur=0.5, noise=1.5).image
+        got = [d.lambda_text for d in strict.detect(image)]
+        assert got in ([], [tag.lambda_text])
+        tried += 1
+        read += got == [tag.lambda_text]
+        assert without.detect(image) == []
+    assert tried >= 6 and read == tried

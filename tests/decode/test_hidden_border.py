@@ -9,6 +9,7 @@ import pytest
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import Detector
+from ottag_db.decode.outlines import cut_by_frame_only
 from ottag_db.decode.placement_check import printed_corners
 from ottag_db.decode.pose import measured_corners
 from ottag_db.printing import scenes as sc
@@ -219,3 +220,27 @@ def test_a_corner_at_the_frames_edge_reads(bundled, polarity) -> None:
         missing += len(Detector(others).detect(frame))
     assert tried >= 8 and read == tried
     assert missing == 0
+
+
+def _filled_outline(corners: np.ndarray, notch: np.ndarray | None = None) -> np.ndarray:
+    """The outer contour of the quad ``corners`` filled in a 480 × 640 mask (cut by its edge),
+    less the polygon ``notch`` when given."""
+    mask = np.zeros((480, 640), np.uint8)
+    cv2.fillPoly(mask, [np.round(corners * 16).astype(np.int32)], 255, cv2.LINE_8, 4)
+    if notch is not None:
+        cv2.fillPoly(mask, [np.round(notch * 16).astype(np.int32)], 0, cv2.LINE_8, 4)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    return max(contours, key=len)
+
+
+def test_only_the_frames_edge_cutting_a_sliver_lets_the_points_decide() -> None:
+    """A quad whose corner lies 3 px beyond the frame's edge, its outline otherwise traced along
+    its sides: only the frame hides it (the inner square, 4 % of the side in, lies in the frame).
+    A corner 20 px beyond could hide a triangle; a notch where a finger covers a side hides part
+    of the border inside the frame: the print must decide for both."""
+    quad = np.array([[-3.0, 200.0], [150.0, 120.0], [230.0, 270.0], [80.0, 350.0]])
+    assert cut_by_frame_only(_filled_outline(quad), quad, (480, 640))
+    deep = quad - [17.0, 0.0]
+    assert not cut_by_frame_only(_filled_outline(deep), deep, (480, 640))
+    finger = np.array([[180.0, 190.0], [260.0, 150.0], [270.0, 170.0], [190.0, 210.0]])  # across a side
+    assert not cut_by_frame_only(_filled_outline(quad, finger), quad, (480, 640))
