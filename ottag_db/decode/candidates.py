@@ -204,9 +204,10 @@ def find_quads(
     # (contour, inverted, its length in px, its first hole or -1: a dark region with bright
     # holes holds triangles, maybe; the dark region a bright hole lies in, or -1)
     outlines: list[tuple[NDArray[Any], bool, float, int, int]] = []
-    for i, c in enumerate(contours):
-        if len(c) < min_len:
-            continue
+    # (a frame of foliage or text traces thousands of contours: their lengths at once)
+    lengths = np.fromiter(map(len, contours), dtype=np.int64, count=len(contours))
+    for i in np.flatnonzero(lengths >= min_len).tolist():
+        c = contours[i]
         inverted = bool(parents[i] >= 0)
         if kind == "bright_holes":
             if not inverted:
@@ -214,7 +215,7 @@ def find_quads(
             inverted = False  # a dark hole in a bright quiet zone: a normal data area
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
-        outlines.append((c, inverted, len(c), int(hier[0][i][2]), int(parents[i]) if inverted else -1))
+        outlines.append((c, inverted, int(lengths[i]), int(hier[0][i][2]), int(parents[i]) if inverted else -1))
     if kind in _LOCAL_PASSES and want_inverted and p.outline_by_lines:
         outlines.extend((c, True, len(c), -1, -1) for c in holes_at_frame_edge(mask, min_len))
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
@@ -297,7 +298,8 @@ def find_quads(
         ):
             continue
         polarity: Polarity = "inverted" if inverted else "normal"
-        frame_cut = lines and cut_by_frame_only(c, outline, mask.shape)  # the points may decide
+        # the points may decide where only the frame's edge cuts the quad (one that reaches it)
+        frame_cut = lines and at_frame_edge(outline, mask.shape) and cut_by_frame_only(c, outline, mask.shape)
         cand = Quad(polarity, clockwise(q), area, inferred=lines, frame_cut=frame_cut)
         if kind == "bright_holes" and squeeze(cand) > p.rectify_max_ratio:
             continue

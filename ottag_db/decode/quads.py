@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from ottag_db.decode.types import Detection, DetectorParams, Quad
 
 __all__ = [
+    "INFERRED_MOVED",
     "OUTLINE_MOVED_PX",
     "Outlined",
     "around_detection",
@@ -43,6 +44,12 @@ NESTED_MAX_AREA = 0.25
 #: A foreshortened candidate that a later binarization outlines with a corner at least this far
 #: (px) from every corner of the earlier outline is read again (see :func:`seen_before`).
 OUTLINE_MOVED_PX = 1.5
+#: An outline inferred from the lines of a partly hidden border is read again when a corner
+#: lies this fraction of the side or more from every corner of the data area's earlier
+#: outline: two outlines that far apart cannot both put their corners within 2 % of the side
+#: of the tag's, the decoder design's bound, and a side seen only along a short run (a corner
+#: cut by the frame's edge, the side nearly along it) is fitted differently by each threshold.
+INFERRED_MOVED = 0.02
 
 
 def clockwise(q: _F64) -> _F64:
@@ -242,9 +249,10 @@ def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
     """Whether an earlier binarization of the frame found this candidate already.
 
     A data area found again (:func:`same_quad`) is not read twice, except where only an
-    inferred outline (:attr:`~ottag_db.decode.types.Quad.inferred`) found it before, and a foreshortened one
+    inferred outline (:attr:`~ottag_db.decode.types.Quad.inferred`) found it before, a foreshortened one
     (:func:`squeeze` at most ``max_ratio``) whose new outline has a corner
-    ``OUTLINE_MOVED_PX`` or more from every corner of the earlier one. Nearly edge-on, a data
+    ``OUTLINE_MOVED_PX`` or more from every corner of the earlier one, and an inferred one whose
+    corner moved :data:`INFERRED_MOVED` of the side (or that, if less). Nearly edge-on, a data
     area is a few pixels thin and each threshold moves its outline by a good part of that: the
     tag seen ranked 7th–23rd among the printed tags from the local threshold's corners and 1st
     from Otsu's (tilt sweep of benchmarks/decode_sweeps.py, 84–86°), which were dropped as the
@@ -269,12 +277,15 @@ def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
     twins = [o for o in _twins(quad, seen) if quad.inferred or not o.inferred]
     if not twins:
         return False
-    if squeeze(quad) > max_ratio:
+    limits = [OUTLINE_MOVED_PX] if squeeze(quad) <= max_ratio else []
+    if quad.inferred:  # corners inferred from lines: each threshold's may fit other runs
+        limits.append(max(OUTLINE_MOVED_PX, INFERRED_MOVED * math.sqrt(quad.area)))
+    if not limits:
         return True
     corners = quad.corners
     for o in twins:
         gaps = np.hypot(*(corners[:, None, :] - o.corners[None, :, :]).transpose(2, 0, 1))  # (4, 4)
-        if float(gaps.min(axis=1).max()) < OUTLINE_MOVED_PX:
+        if float(gaps.min(axis=1).max()) < min(limits):
             return True
     return False
 

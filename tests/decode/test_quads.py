@@ -157,3 +157,21 @@ def test_an_inferred_outline_does_not_stand_in_for_a_whole_one() -> None:
     assert not seen_before(whole, [inferred], ratio)
     assert seen_before(inferred, [inferred], ratio)
     assert seen_before(whole, [whole], ratio) and seen_before(inferred, [whole], ratio)
+
+
+def test_an_inferred_outline_whose_corner_moved_is_read_again() -> None:
+    """Two thresholds fit a side seen along a short run differently (a corner cut by the frame's
+    edge): an inferred outline with a corner 2 % of the side or more from every corner of the
+    earlier outline is read again, one that moved a px is the same outline."""
+    corners = np.array([[100.0, 100.0], [260.0, 110.0], [250.0, 270.0], [95.0, 260.0]])
+    area = float(abs(cv2.contourArea(corners.astype(np.float32))))
+    side = np.sqrt(area)
+    first = Quad("normal", corners, area, inferred=True)
+    ratio = DetectorParams().rectify_max_ratio
+    refit = corners.copy()
+    refit[3] += [1.0, 0.03 * side]  # one corner 3 % of the side away
+    moved = Quad("normal", refit, area, inferred=True)
+    nudged = Quad("normal", corners + 1.0, area, inferred=True)
+    assert not seen_before(moved, [first], ratio)
+    assert seen_before(nudged, [first], ratio)
+    assert seen_before(Quad("normal", refit, area), [Quad("normal", corners, area)], ratio)  # whole: as before
