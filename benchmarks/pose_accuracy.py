@@ -88,7 +88,9 @@ def _edges(img: np.ndarray) -> tuple[float, float, float, float]:
 def tag_texture(db: Path, tag: TagRecord, folder: Path) -> Texture:
     """Export ``tag`` as a 100 mm PDF with ``ottag-db export`` and rasterize its data area + quiet zone."""
     pdf = folder / f"tag{tag.order_type_id}.pdf"
-    cmd = ["ottag-db", "--db", str(db), "export", "--ids", str(tag.order_type_id), "--tag-size", "100mm"]
+    # (the command line of this interpreter's environment, whether or not it is activated)
+    cmd = [sys.executable, "-m", "ottag_db", "--db", str(db), "export", "--ids", str(tag.order_type_id)]
+    cmd += ["--tag-size", "100mm"]
     cmd += ["--no-labels", "--page", "170x200mm", "--margin", "5mm", "--quiet", str(pdf)]
     subprocess.run(cmd, check=True, capture_output=True)
     doc = pdfium.PdfDocument(str(pdf))
