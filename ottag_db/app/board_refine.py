@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ottag_db.core.geometry import segment_distances
+
 __all__ = ["Straightening", "refine_tag", "tag_edges"]
 
 _F64 = NDArray[np.float64]
@@ -67,13 +69,6 @@ def _apply(h: _F64, pts: _F64) -> _F64:
     return out
 
 
-def _segment_distance(pts: _F64, a: _F64, b: _F64) -> _F64:
-    d = b - a
-    t = np.clip(((pts - a) @ d) / float(d @ d), 0.0, 1.0)
-    out: _F64 = np.linalg.norm(pts - (a + t[:, None] * d), axis=1)
-    return out
-
-
 def _edge_samples(gray: NDArray[np.float32], h: _F64, segs: list[tuple[_F64, _F64]]) -> tuple[_F64, _F64]:
     """Image edge points (n, 2) and the board lines (n, 3: unit normal, −offset) they lie on."""
     import cv2
@@ -89,7 +84,7 @@ def _edge_samples(gray: NDArray[np.float32], h: _F64, segs: list[tuple[_F64, _F6
         ok = np.ones(n, dtype=bool)
         for sj, (c, d) in enumerate(segs):
             if sj != si:
-                ok &= _segment_distance(mp, c, d) * scale > _CLEAR
+                ok &= segment_distances(mp, c[None], d[None])[:, 0] * scale > _CLEAR
         if ok.sum() < 2:
             continue
         mp = mp[ok]

@@ -28,6 +28,7 @@ __all__ = [
     "maximal_perturbation",
     "maximal_perturbations",
     "orientation_tensor",
+    "segment_distances",
     "triple_figures",
     "triple_indices",
     "triple_orientations",
@@ -448,6 +449,31 @@ def check_general_position(points: ArrayLike, *, record_offset: int = 0) -> None
         record=b + record_offset,
         points=tri,
     )
+
+
+def segment_distances(points: ArrayLike, starts: ArrayLike, ends: ArrayLike) -> NDArray[np.float64]:
+    """Euclidean distance of each point to each segment.
+
+    Parameters
+    ----------
+    points : array_like
+        ``(n, 2)`` points.
+    starts, ends : array_like
+        ``(m, 2)`` the segments' end points (a segment of zero length is its point).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, m)`` float64 distances.
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    a = np.asarray(starts, dtype=np.float64).reshape(-1, 2)
+    d = np.asarray(ends, dtype=np.float64).reshape(-1, 2) - a
+    rel = pts[:, None, :] - a  # (n, m, 2)
+    length2 = np.einsum("md,md->m", d, d)
+    t = np.clip(np.einsum("nmd,md->nm", rel, d) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    out: NDArray[np.float64] = np.linalg.norm(rel - t[..., None] * d, axis=2)
+    return out
 
 
 def _fmt(p: NDArray[np.float64]) -> str:

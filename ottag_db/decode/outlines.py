@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from ottag_db.core.geometry import segment_distances
 from ottag_db.core.types import QUIET_ZONE
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.quads import clockwise
@@ -374,11 +375,7 @@ def cut_by_frame_only(contour: NDArray[Any], quad: NDArray[Any], shape: tuple[in
     pts = pts[off_edge]
     if not len(pts):
         return False
-    # distance of each outline point to the nearest of the quad's sides (segments)
-    a, b = corners, np.roll(corners, -1, axis=0)
-    ab = b - a
-    t = np.clip(np.einsum("nkd,kd->nk", pts[:, None, :] - a, ab) / np.einsum("kd,kd->k", ab, ab), 0.0, 1.0)
-    gap = np.linalg.norm(pts[:, None, :] - (a + t[..., None] * ab), axis=2).min(axis=1)
+    gap = segment_distances(pts, corners, np.roll(corners, -1, axis=0)).min(axis=1)  # to the nearest side
     side = math.sqrt(abs(float(cv2.contourArea(corners.astype(np.float32)))))
     return bool(gap.max() <= max(1.5, FRAME_CUT_TOLERANCE * side))
 

@@ -277,15 +277,15 @@ def seen_before(quad: Quad, seen: list[Quad], max_ratio: float) -> bool:
     twins = [o for o in _twins(quad, seen) if quad.inferred or not o.inferred]
     if not twins:
         return False
-    limits = [OUTLINE_MOVED_PX] if squeeze(quad) <= max_ratio else []
+    moved = OUTLINE_MOVED_PX if squeeze(quad) <= max_ratio else math.inf
     if quad.inferred:  # corners inferred from lines: each threshold's may fit other runs
-        limits.append(max(OUTLINE_MOVED_PX, INFERRED_MOVED * math.sqrt(quad.area)))
-    if not limits:
+        moved = min(moved, max(OUTLINE_MOVED_PX, INFERRED_MOVED * math.sqrt(quad.area)))
+    if moved == math.inf:
         return True
     corners = quad.corners
     for o in twins:
         gaps = np.hypot(*(corners[:, None, :] - o.corners[None, :, :]).transpose(2, 0, 1))  # (4, 4)
-        if float(gaps.min(axis=1).max()) < min(limits):
+        if float(gaps.min(axis=1).max()) < moved:
             return True
     return False
 

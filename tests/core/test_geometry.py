@@ -21,6 +21,7 @@ from ottag_db.core.geometry import (
     maximal_perturbation,
     maximal_perturbations,
     orientation_tensor,
+    segment_distances,
     triple_figures,
     triple_indices,
     triple_orientations,
@@ -160,3 +161,20 @@ def test_reflection_complements_lambda(seed: int, k: int, axis: int) -> None:
     reflected[..., axis] = 255 - reflected[..., axis]
     assert np.array_equal(lambda_matrices(reflected), mirror_lambdas(lambda_matrices(pts)))
     assert np.array_equal(hull_sizes(lambda_matrices(reflected)), hull_sizes(lambda_matrices(pts)))
+
+
+_coord = st.floats(-100.0, 100.0, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(_coord, _coord), min_size=3, max_size=3))
+def test_segment_distance_is_the_closest_point_of_the_segment(xy) -> None:
+    """The distance to a segment is that of its closest point: never more than to either end, and
+    within a hair of the nearest of 2,001 points along it; zero at the segment's own points."""
+    p, a, b = (np.array(v) for v in xy)
+    d = float(segment_distances(p[None], a[None], b[None])[0, 0])
+    along = a + np.linspace(0.0, 1.0, 2001)[:, None] * (b - a)
+    sampled = float(np.linalg.norm(along - p, axis=1).min())
+    assert d <= min(np.linalg.norm(p - a), np.linalg.norm(p - b)) + 1e-9
+    assert sampled - np.linalg.norm(b - a) / 2000 - 1e-9 <= d <= sampled + 1e-9
+    assert segment_distances(along[::500], a[None], b[None]).max() < 1e-9
