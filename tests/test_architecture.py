@@ -8,6 +8,7 @@ a lazy import is still a dependency.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -42,6 +43,11 @@ FORBIDDEN_THIRD_PARTY: dict[str, frozenset[str]] = {
 }
 
 MAX_MODULE_LINES = 500
+
+#: The compiled kernels (``native/ottag_native``, Cython; a top-level package so that the tests
+#: in the checkout import it from where ``pip install .`` built it) serve the decoder's stages.
+NATIVE = PACKAGE.parent / "native" / "ottag_native"
+NATIVE_USERS = frozenset({"decode"})
 
 
 def _modules() -> list[Path]:
@@ -144,3 +150,19 @@ def test_the_checker_sees_a_violation() -> None:
     src += "    from ottag_db import __version__, decode\n"
     targets = [_target_layer(m) for _, m in _imports_in(src, "ottag_db.core")]
     assert targets == ["store", "cli", "core", None, "decode"]
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_only_the_decoder_uses_the_compiled_kernels(path: Path) -> None:
+    if _layer(path) in NATIVE_USERS:
+        return
+    wrong = [f"line {line}: {module}" for line, module in _imports(path) if module.split(".")[0] == "ottag_native"]
+    assert not wrong, f"{path.relative_to(PACKAGE.parent)} imports the compiled kernels: {wrong}"
+
+
+def test_the_compiled_kernels_import_nothing_of_ours() -> None:
+    sources = sorted(p for p in NATIVE.iterdir() if p.suffix in (".py", ".pyi", ".pyx"))
+    assert any(p.suffix == ".pyx" for p in sources)
+    ours = re.compile(r"^\s*(from|c?import)\s+ottag_db\b", re.MULTILINE)
+    wrong = [str(p.relative_to(PACKAGE.parent)) for p in sources if ours.search(p.read_text(encoding="utf-8"))]
+    assert not wrong, f"the kernels are leaves (numbers in, numbers out): {wrong}"

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from ottag_native.blur import side_blurs, side_samples
 
 from ottag_db.decode.refine import lines_through, polygon_vertices
 from ottag_db.decode.types import Quad
@@ -281,86 +282,32 @@ def edge_blur(gray: NDArray[np.uint8], quad: Quad) -> EdgeBlur:
     EdgeBlur
         Per side σ in frame px (NaN where no step showed).
     """
-    corners = quad.corners
     side = math.sqrt(max(quad.area, 1.0))
     reach = min(_ACROSS_MAX, max(4.0, 0.2 * side))
     across = np.arange(-reach, reach + 1e-9, _ACROSS_STEP)
-    centre = corners.mean(axis=0)
-    a = corners
-    b = np.roll(corners, -1, axis=0)
-    direction = b - a
-    length = np.hypot(direction[:, 0], direction[:, 1])
-    normal = np.stack([direction[:, 1], -direction[:, 0]], axis=1) / np.maximum(length, 1e-9)[:, None]
-    mid = (a + b) / 2
-    flip = np.sign(np.einsum("si,si->s", mid - centre, normal))  # outward
-    normal = normal * np.where(flip == 0, 1.0, flip)[:, None]
-    # where each profile starts along its side: (4, M places × S parallel lines, 2), then
-    # its samples across, x and y apart (contiguous maps for cv2.remap)
-    fractions = (_ALONG[:, None] + _ALONG_SPREAD[None, :] / np.maximum(length, 1e-9)[:, None, None]).reshape(4, -1)
-    starts = a[:, None, :] + fractions[:, :, None] * direction[:, None, :]
-    xs = (starts[:, :, 0, None] + across[None, None, :] * normal[:, 0, None, None]).astype(np.float32)
-    ys = (starts[:, :, 1, None] + across[None, None, :] * normal[:, 1, None, None]).astype(np.float32)
-    shape = (4 * len(_ALONG) * len(_ALONG_SPREAD), len(across))
-    profiles = cv2.remap(gray, xs.reshape(shape), ys.reshape(shape), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    # each side's profiles (compiled, ottag_native.blur): across it along its outward normal, at
+    # the places _ALONG of its length, each place as len(_ALONG_SPREAD) parallel lines
+    rows = 4 * len(_ALONG) * len(_ALONG_SPREAD)
+    xs, ys = np.empty((rows, len(across)), np.float32), np.empty((rows, len(across)), np.float32)
+    normal, length = np.empty((4, 2)), np.empty(4)
+    corners = np.ascontiguousarray(quad.corners, dtype=np.float64)
+    side_samples(corners, across, _ALONG, _ALONG_SPREAD, xs, ys, normal, length)
+    profiles = cv2.remap(gray, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     profile = profiles.reshape(4 * len(_ALONG), len(_ALONG_SPREAD), len(across)).mean(axis=1)
-    # the step's height from the quiet zone's side only: twice the outer plateau's distance
-    # from the grey at the steepest point (a blurred step's midpoint); inside, the triangles
-    # can come within a few pixels of the data area's border
-    third = max(len(across) // 3, 1)
-    outer = np.median(profile[:, -third:], axis=1)
     spread = _SMOOTHING_PX / _ACROSS_STEP  # along each profile only (a row is one sample)
     smooth = cv2.GaussianBlur(profile, (2 * math.ceil(3 * spread) + 1, 1), spread, borderType=cv2.BORDER_REPLICATE)
-    steps = np.abs(np.diff(smooth, axis=1))
-    steepest = steps.argmax(axis=1)
-    rows = np.arange(len(smooth))
-    middle = (smooth[rows, steepest] + smooth[rows, steepest + 1]) / 2
-    height = 2 * np.abs(outer - middle)
-    slope = steps[rows, steepest] / _ACROSS_STEP
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sigma = height / (slope * math.sqrt(2 * math.pi))
-    sigma = np.sqrt(np.maximum(sigma * sigma - _SMOOTHING_PX**2, 0.0))  # the smoothing's own blur taken out
-    least = min(max(STEP_MIN_SHARE * float(np.median(height)), _NOISE_HEIGHT), _MIN_HEIGHT)
-    sigma = np.where((height >= least) & (slope > 0), sigma, np.nan).reshape(4, len(_ALONG))
-    count = np.isfinite(sigma).sum(axis=1)
-    valid = (count >= len(_ALONG) // 2) & (length >= 4)
-    ordered = np.sort(sigma, axis=1)  # (NaN last) for the median and the quartiles
-    per_side = np.where(valid, _sorted_medians(ordered, count), np.nan)
-    # each side's standard error from its samples' interquartile range (as the median absolute
-    # deviation for a normal scatter; but also wide where a motion smears a triangle near the
-    # side across half of it: 5 samples measured 9 px, 4 measured 3 px, as the opposite side)
-    low, high = (_at_rank(ordered, np.rint(f * (count - 1)).astype(np.int64)) for f in (0.25, 0.75))
-    errors = np.where(valid, 1.2533 * (high - low) / 1.349 / np.sqrt(np.maximum(count, 1)), np.nan)
-    # the step's midpoint: the steepest point's median position across the side
-    where = np.where(np.isfinite(sigma.ravel()), across[steepest] + _ACROSS_STEP / 2, np.nan).reshape(4, len(_ALONG))
-    offsets = np.where(valid, _finite_medians(where, count), np.nan)
-    heights = np.where(np.isfinite(sigma), height.reshape(4, len(_ALONG)), np.nan)
-    steps = np.where(valid, _finite_medians(heights, count), np.nan)
-    return EdgeBlur(
-        tuple(float(v) for v in per_side),
-        normal,
-        tuple(float(v) for v in offsets),
-        tuple(float(v) for v in errors),
-        tuple(float(v) for v in steps),
+    # per sample (compiled, ottag_native.blur): the step's height from the quiet zone's side
+    # only — twice the outer third's median grey's distance from the grey at the steepest point,
+    # a blurred step's midpoint (inside, the triangles can come within a few pixels of the data
+    # area's border) — and its slope there give σ, the smoothing's own blur taken out; a sample
+    # whose step is under the least height (_MIN_HEIGHT) does not count. Per side, with at least
+    # half of its samples: their median σ, its standard error from their interquartile range (as
+    # the median absolute deviation for a normal scatter; but also wide where a motion smears a
+    # triangle near the side across half of it: 5 samples measured 9 px, 4 measured 3 px, as the
+    # opposite side), the step's midpoint (the steepest point's median position) and its height.
+    out = np.empty((4, 4))
+    side_blurs(
+        profile, smooth, across, length, out, _ACROSS_STEP, _SMOOTHING_PX, STEP_MIN_SHARE, _NOISE_HEIGHT, _MIN_HEIGHT
     )
-
-
-def _finite_medians(values: _F64, count: NDArray[np.int64]) -> _F64:
-    """Each row's median over its ``count`` finite values, in one sort (NaN sorts last; as
-    ``np.nanmedian`` gives it, without its masked arrays, which cost more than the rest of
-    :func:`edge_blur`); NaN for a row without finite values."""
-    return _sorted_medians(np.sort(values, axis=1), count)
-
-
-def _sorted_medians(ordered: _F64, count: NDArray[np.int64]) -> _F64:
-    """:func:`_finite_medians` of rows already sorted (NaN last)."""
-    low = _at_rank(ordered, (count - 1) // 2)
-    high = _at_rank(ordered, count // 2)
-    out: _F64 = np.where(count % 2 == 1, low, (low + high) / 2)
-    return out
-
-
-def _at_rank(ordered: _F64, rank: NDArray[np.int64]) -> _F64:
-    """Each sorted row's value at its ``rank`` (clipped to the row)."""
-    at = np.clip(rank, 0, ordered.shape[1] - 1)[:, None]
-    out: _F64 = np.take_along_axis(ordered, at, axis=1)[:, 0]
-    return out
+    sides, offsets, errors, steps = (tuple(float(v) for v in row) for row in out)
+    return EdgeBlur(sides, normal, offsets, errors, steps)

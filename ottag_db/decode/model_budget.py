@@ -150,15 +150,19 @@ def view_samples(gray: NDArray[np.uint8], views: list[View], size: int = MODEL_G
     rows : numpy.ndarray
         ``(len(views), size²)`` normalized rows, as :func:`coarse_samples` returns them.
     """
-    sampled: list[tuple[View, _F32]] = []  # (view, its sample, not negated)
+    # (view, its corners as lists, its sample, not negated); the corners compared in plain
+    # Python (np.roll and np.array_equal on 8 numbers cost more than the comparison)
+    sampled: list[tuple[View, list[list[float]], _F32]] = []
     samples: list[_F32] = []
     kept: list[View] = []
     for view in views:
         s = None
-        for base, base_sample in sampled:
+        corners: list[list[float]] = view.corners.tolist()
+        for base, base_corners, base_sample in sampled:
             if base.polarity != view.polarity:
                 continue
-            turns = [r for r in range(1, 4) if np.array_equal(view.corners, np.roll(base.corners, -r, axis=0))]
+            # the base's corners turned by r places, as np.roll(base.corners, -r, axis=0)
+            turns = [r for r in range(1, 4) if corners == base_corners[r:] + base_corners[:r]]
             if turns:
                 s = np.rot90(base_sample, turns[0])
                 break
@@ -167,7 +171,7 @@ def view_samples(gray: NDArray[np.uint8], views: list[View], size: int = MODEL_G
             s = None if to_frame is None else _sample(gray, to_frame, 0.0, 1.0, size)
             if s is None:
                 continue
-            sampled.append((view, s))
+            sampled.append((view, corners, s))
         samples.append(s.ravel() if view.polarity == "normal" else -s.ravel())
         kept.append(view)
     if not samples:

@@ -10,7 +10,6 @@ still lie on four lines (:func:`lines_outline`); the candidate stage
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -18,6 +17,7 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from ottag_native.lines import lines_quad
 
 from ottag_db.core.geometry import segment_distances
 from ottag_db.core.types import QUIET_ZONE
@@ -101,8 +101,6 @@ FRAME_CUT_INNER_MARGIN = 0.04
 #: outline by 4 % of the side or more (the occluders of benchmarks/decode_occlusion.py),
 #: the pixel steps and blur of a traced outline by a px or two.
 FRAME_CUT_TOLERANCE = 0.025
-#: A run of collinear outline edges: (support px, a point x, y, direction x, y, first edge).
-_Run = tuple[float, float, float, float, float, int]
 
 
 def lines_outline(
@@ -144,104 +142,28 @@ def lines_outline(
     if not least_solid <= solidity <= most_solid:
         return None  # ragged: texture, not a square with a spike, a notch or a cut corner
     tol = max(1.5, _LINE_DISTANCE * perimeter)
-    poly: list[list[float]] = cv2.approxPolyDP(contour, tol, True).reshape(-1, 2).astype(float).tolist()
+    poly = cv2.approxPolyDP(contour, tol, True).reshape(-1, 2).astype(np.float64)
     if len(poly) < 5 and not ring:  # a corner cut off by a few px: the polygon rounds it off
         fine = max(1.0, _FINE_TOLERANCE * tol)
-        poly = cv2.approxPolyDP(contour, fine, True).reshape(-1, 2).astype(float).tolist()
+        poly = cv2.approxPolyDP(contour, fine, True).reshape(-1, 2).astype(np.float64)
     if len(poly) < 5 or len(poly) > 24:
         return None
     h, w = shape[:2]
-    # plain Python on a few dozen numbers (numpy's per-call cost would dominate)
-    edges: list[tuple[float, int, float, float, float, float]] = []  # (length, index, x, y, ux, uy)
-    for i, ((ax, ay), (bx, by)) in enumerate(zip(poly, poly[1:] + poly[:1], strict=True)):
-        along_frame = (ax <= 1 and bx <= 1) or (ay <= 1 and by <= 1) or (ax >= w - 2 and bx >= w - 2)
-        if along_frame or (ay >= h - 2 and by >= h - 2):
-            continue  # the frame's edge, not a side
-        length = math.hypot(bx - ax, by - ay)
-        if length >= 2 * tol:
-            edges.append((length, i, ax, ay, (bx - ax) / length, (by - ay) / length))
+    # compiled (ottag_native.lines): the edges off the frame's edge, at least twice the
+    # tolerance long, that lie on one line (within _LINE_ANGLE_DEG and the tolerance) are runs of
+    # one side; of the _LINES_CONSIDERED longest runs, the four whose lines, in the outline's
+    # order, meet at the corners of a convex quad covering the outline's area with the most
+    # support (a spike's edges can be longer; a run supports its side only between the side's
+    # corners: a bar's edge runs on beyond), kept when that support is at least
+    # LINES_MIN_SUPPORT of the quad's outline inside the frame (only one corner may lie beyond
+    # the edge, as three seen ones hold the quad: with more, the whole perimeter counts)
+    quad = np.empty((4, 2), np.float32)
     cos_tol = math.cos(math.radians(_LINE_ANGLE_DEG))
-    runs: list[_Run] = []
-    spans: dict[int, list[tuple[float, float]]] = {}  # per run (its first edge): edges along its line
-    for length, i, ax, ay, ux, uy in sorted(edges, reverse=True):
-        bx, by = ax + length * ux, ay + length * uy
-        for j, (support, px, py, dx, dy, first) in enumerate(runs):
-            if (
-                abs(ux * dx + uy * dy) >= cos_tol
-                and max(abs((ax - px) * dy - (ay - py) * dx), abs((bx - px) * dy - (by - py) * dx)) <= tol
-            ):
-                runs[j] = (support + length, px, py, dx, dy, first)
-                s0, s1 = (ax - px) * dx + (ay - py) * dy, (bx - px) * dx + (by - py) * dy
-                spans[first].append((min(s0, s1), max(s0, s1)))
-                break
-        else:
-            runs.append((length, ax, ay, ux, uy, i))
-            spans[i] = [(0.0, length)]
-    if len(runs) < 4:
+    if not lines_quad(
+        poly, tol, cos_tol, w, h, least * region, most * region, _LINES_CONSIDERED, LINES_MIN_SUPPORT, quad
+    ):
         return None
-    best_quad: NDArray[Any] | None = None
-    best_support = 0.0
-    # the four lines of the sides among the longest runs: the combination that covers the
-    # outline's area as a convex quad with the most support (a spike's edges can be longer);
-    # a run supports its side only between the side's corners (a bar's edge runs on beyond)
-    for four in itertools.combinations(sorted(runs, reverse=True)[:_LINES_CONSIDERED], 4):
-        if sum(r[0] for r in four) <= best_support:
-            continue
-        ordered = sorted(four, key=lambda r: r[5])  # in the outline's order
-        quad = _lines_quad(ordered)
-        if quad is None:
-            continue
-        area = abs(float(cv2.contourArea(quad)))
-        if least * region <= area <= most * region:
-            support = _support_within(ordered, spans, quad.reshape(4, 2).tolist())
-            if support > best_support:
-                best_quad, best_support = quad, support
-    if best_quad is None or best_support < LINES_MIN_SUPPORT * _length_in_frame(best_quad, (w, h)):
-        return None
-    return best_quad
-
-
-def _support_within(
-    lines: Sequence[_Run], spans: dict[int, list[tuple[float, float]]], corners: list[list[float]]
-) -> float:
-    """How much of the runs' edges lies on their sides between the quad's corners (px); side
-    ``i`` runs from corner ``i − 1`` to corner ``i`` (:func:`_lines_quad`)."""
-    total = 0.0
-    for i, (_, px, py, dx, dy, first) in enumerate(lines):
-        (ax, ay), (bx, by) = corners[i - 1], corners[i]
-        t0, t1 = (ax - px) * dx + (ay - py) * dy, (bx - px) * dx + (by - py) * dy
-        lo, hi = min(t0, t1), max(t0, t1)
-        total += sum(max(0.0, min(hi, s1) - max(lo, s0)) for s0, s1 in spans[first])
-    return total
-
-
-def _length_in_frame(quad: NDArray[Any], size: tuple[int, int]) -> float:
-    """The length of the sides of ``quad`` (``(4, 1, 2)``) within a frame of ``size`` = (W, H):
-    what of its outline can be seen (a corner cut by the frame's edge takes parts of two sides
-    with it, as much as a quarter of a side nearly parallel to that edge). Only one corner may
-    lie beyond the edge (three seen ones hold the quad, as
-    :data:`~ottag_db.decode.placement_check.CORNERS_TO_TRUST_PRINT` hold the print): with more,
-    the whole perimeter counts, as for a quad within the frame."""
-    w, h = size
-    pts: list[list[float]] = quad.reshape(4, 2).astype(float).tolist()
-    if sum(not (0 <= x <= w - 1 and 0 <= y <= h - 1) for x, y in pts) > 1:
-        return float(cv2.arcLength(quad, True))
-    total = 0.0
-    for (ax, ay), (bx, by) in zip(pts, pts[1:] + pts[:1], strict=True):
-        lo, hi = 0.0, 1.0  # the part of a→b inside the frame (Liang–Barsky)
-        for p, q in ((ax - bx, ax), (bx - ax, w - 1 - ax), (ay - by, ay), (by - ay, h - 1 - ay)):
-            if p == 0:
-                if q < 0:
-                    hi = lo - 1.0  # parallel to this edge and outside
-                continue
-            t = q / p
-            if p < 0:
-                lo = max(lo, t)
-            else:
-                hi = min(hi, t)
-        if hi > lo:
-            total += (hi - lo) * math.hypot(bx - ax, by - ay)
-    return total
+    return quad.reshape(4, 1, 2)
 
 
 def without_spikes(contour: NDArray[Any], holes: Sequence[NDArray[Any]], shape: tuple[int, ...]) -> NDArray[Any] | None:
@@ -312,10 +234,13 @@ def holes_at_frame_edge(mask: NDArray[Any], min_len: float) -> list[NDArray[Any]
     if hier is None:
         return []
     h, w = mask.shape[:2]
+    # (a frame of foliage or text traces tens of thousands of contours: the holes of the right
+    # length are picked at once, and only they are looked at; longer: the background along the edge)
+    lengths = np.fromiter(map(len, contours), dtype=np.int64, count=len(contours))
+    holes = (hier[0][:, 3] >= 0) & (lengths >= min_len) & (lengths <= w + h)
     out = []
-    for c, (_, _, _, parent) in zip(contours, hier[0], strict=True):
-        if parent < 0 or not min_len <= len(c) <= w + h:  # (longer: the background along the edge)
-            continue
+    for i in np.flatnonzero(holes).tolist():
+        c = contours[i]
         x, y = c[:, 0, 0], c[:, 0, 1]
         if x.min() <= 0 or y.min() <= 0 or x.max() >= w - 1 or y.max() >= h - 1:
             out.append(c)
@@ -378,17 +303,3 @@ def cut_by_frame_only(contour: NDArray[Any], quad: NDArray[Any], shape: tuple[in
     gap = segment_distances(pts, corners, np.roll(corners, -1, axis=0)).min(axis=1)  # to the nearest side
     side = math.sqrt(abs(float(cv2.contourArea(corners.astype(np.float32)))))
     return bool(gap.max() <= max(1.5, FRAME_CUT_TOLERANCE * side))
-
-
-def _lines_quad(lines: Sequence[_Run]) -> NDArray[Any] | None:
-    """The convex quad whose sides lie on four runs' lines, each meeting the next at a corner;
-    None when neighbours are nearly parallel or the quad is not convex."""
-    corners: list[tuple[float, float]] = []
-    for (_, px, py, dx, dy, _), (_, qx, qy, ex, ey, _) in zip(lines, [*lines[1:], lines[0]], strict=True):
-        det = dx * ey - dy * ex
-        if abs(det) < 0.2:  # nearly parallel neighbours: no corner between them
-            return None
-        t = ((qx - px) * ey - (qy - py) * ex) / det
-        corners.append((px + t * dx, py + t * dy))
-    quad = np.asarray(corners, dtype=np.float32).reshape(4, 1, 2)
-    return quad if cv2.isContourConvex(quad) else None

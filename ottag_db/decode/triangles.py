@@ -9,6 +9,7 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from ottag_native.triangles import fit_triangle
 
 from ottag_db.decode.types import Rejection
 
@@ -100,81 +101,21 @@ def triangle_fit_parts(pts: NDArray[Any]) -> TriangleFit | None:
     if len(hull) < 3:
         return None
     flat = flat_i.astype(np.float64)
-    hp = flat[hull]
-    # by coordinate: numpy broadcasts over a last axis of length 2 several times slower
-    hx, hy = hp[:, 0], hp[:, 1]
-    dx, dy = hx[:, None] - hx[None, :], hy[:, None] - hy[None, :]
-    dd = dx * dx + dy * dy
-    ia, ib = divmod(int(dd.argmax()), len(hp))
-    hpl: list[list[float]] = hp.tolist()
-
-    def far_from(p0: list[float], p1: list[float]) -> list[float]:
-        """Twice the area of the triangle of each hull point with ``p0`` and ``p1``."""
-        (x0, y0), (x1, y1) = p0, p1
-        ex, ey = x1 - x0, y1 - y0
-        return [abs(ex * (y - y0) - ey * (x - x0)) for x, y in hpl]
-
-    vals = far_from(hpl[ia], hpl[ib])
-    ic = vals.index(max(vals))  # the first largest, as np.argmax
-    sel = [int(ia), int(ib), ic]
-    # grow to the largest-area hull triangle (a blunt short side can fool the farthest pair)
-    for it in range(3):
-        changed = False
-        for r in range(3):
-            if r == 2 and it == 0 and not changed:
-                break  # corner 2 is already the farthest from the unchanged side 0–1
-            vals = far_from(hpl[sel[(r + 1) % 3]], hpl[sel[(r + 2) % 3]])
-            best = vals.index(max(vals))
-            if best != sel[r] and vals[best] > vals[sel[r]] + 1e-9:
-                sel[r] = best
-                changed = True
-        if not changed:
-            break
-    idx = sorted({int(hull[s]) for s in sel})
-    if len(idx) < 3:
+    # compiled (ottag_native.triangles): corners — the two farthest hull points and the hull
+    # point farthest from their line (paper Sec. 4.1.2), grown to the largest-area hull
+    # triangle (a blunt short side can fool the farthest pair) —, the area test, and per side
+    # the chain without 15 % at each end, whose PCA line at most 5 % of the contour (without
+    # the 10 % next to each corner) may miss by more than 1 px + 1.5 % of the side; a side of
+    # under 6 points (the base of a needle) is its chord, which the grey-level fit refines
+    fit = fit_triangle(
+        flat, np.ascontiguousarray(hull, dtype=np.int32), abs(float(cv2.contourArea(c))), float(cv2.arcLength(c, True))
+    )
+    if fit is None:
         return None
-    tri = flat[idx]
-    (t0x, t0y), (t1x, t1y), (t2x, t2y) = tri.tolist()
-    t_area = 0.5 * abs((t1x - t0x) * (t2y - t0y) - (t1y - t0y) * (t2x - t0x))
-    c_area = abs(float(cv2.contourArea(c)))
-    perim = float(cv2.arcLength(c, True))
-    if t_area <= 0 or abs(c_area - t_area) > 0.2 * t_area + 0.25 * perim:
-        return None
-    chains: list[_F64] = []
-    far = 0
-    i0, i1, i2 = idx
-    # the contour in homogeneous coordinates (a column of ones): one product gives a chain's
-    # sums and second moments
-    homog = np.empty((n, 3))
-    homog[:, :2] = flat
-    homog[:, 2] = 1.0
-    ends = ((t0x, t0y, t1x, t1y), (t1x, t1y, t2x, t2y), (t2x, t2y, t0x, t0y))
-    segs = (homog[i0 : i1 + 1], homog[i1 : i2 + 1], np.concatenate([homog[i2:], homog[: i0 + 1]]))
-    for seg3, (sx, sy, qx, qy) in zip(segs, ends, strict=True):
-        seg = seg3[:, :2]
-        m = len(seg)
-        ln = math.hypot(qx - sx, qy - sy)
-        if ln < 1:
-            return None
-        if m < 6:
-            # a short side (the base of a needle): the chord; the grey-level fit refines it
-            chains.append(seg[[0, -1]])
-            continue
-        trim = max(1, int(0.15 * m))
-        core3 = seg3[trim : m - trim]
-        # distance of the chain (without its ends) to the line fitted to its core
-        t10 = max(1, int(0.1 * m))
-        # PCA line of the core from raw moments (pixel coordinates: no loss of precision)
-        (gxx, gxy, sx_), (_, gyy, sy_), _ = (core3.T @ core3).tolist()
-        cx, cy = sx_ / len(core3), sy_ / len(core3)
-        theta = 0.5 * math.atan2(2 * (gxy - sx_ * cy), (gxx - sx_ * cx) - (gyy - sy_ * cy))
-        nx, ny = -math.sin(theta), math.cos(theta)
-        dist = np.abs(seg[t10 : m - t10] @ np.array((nx, ny)) - (nx * cx + ny * cy))
-        far += int(np.count_nonzero(dist > 1.0 + 0.015 * ln))
-        chains.append(core3[:, :2])
-    if far > max(2, 0.05 * n):
-        return None
-    return TriangleFit(chains, tri, flat)
+    i0, i1, i2, *trims = fit
+    segs = (flat[i0 : i1 + 1], flat[i1 : i2 + 1], np.concatenate([flat[i2:], flat[: i0 + 1]]))
+    chains = [seg[[0, -1]] if trim < 0 else seg[trim : len(seg) - trim] for seg, trim in zip(segs, trims, strict=True)]
+    return TriangleFit(chains, flat[[i0, i1, i2]], flat)
 
 
 def off_triangle(pts: _F64, tri: _F64, tol_px: float) -> int:
