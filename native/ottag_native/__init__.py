@@ -3,6 +3,6 @@
 A separate top-level package, not a module of ``ottag_db``: the README's test command runs
 ``python -m pytest`` in the checkout, where the ``ottag_db`` found first is the source tree,
 which holds no compiled files; this package is found where ``pip install .`` put it.
-Each kernel computes exactly what the numpy code it replaced did (the same operations in the
-same order, in double precision), so the decoder's readings do not depend on it.
+Each kernel computes exactly what the numpy or plain-Python code it replaced did (the same
+operations in the same order and precision), so the decoder's readings do not depend on it.
 """
