@@ -50,6 +50,7 @@ LINES_MIN_SUPPORT = 0.85
 #: length) of a line are runs of that line: the two visible parts of a side cut by a bar.
 _LINE_ANGLE_DEG = 4.0
 _LINE_DISTANCE = 0.015
+_LINE_COS = math.cos(math.radians(_LINE_ANGLE_DEG))  # (the kernel compares directions' cosines)
 #: The longest runs among which the four sides are looked for, and the range of the quad's
 #: area over the outline's own (a spike adds little area, a notch or a cut corner takes little).
 _LINES_CONSIDERED = 7
@@ -158,9 +159,8 @@ def lines_outline(
     # LINES_MIN_SUPPORT of the quad's outline inside the frame (only one corner may lie beyond
     # the edge, as three seen ones hold the quad: with more, the whole perimeter counts)
     quad = np.empty((4, 2), np.float32)
-    cos_tol = math.cos(math.radians(_LINE_ANGLE_DEG))
     if not lines_quad(
-        poly, tol, cos_tol, w, h, least * region, most * region, _LINES_CONSIDERED, LINES_MIN_SUPPORT, quad
+        poly, tol, _LINE_COS, w, h, least * region, most * region, _LINES_CONSIDERED, LINES_MIN_SUPPORT, quad
     ):
         return None
     return quad.reshape(4, 1, 2)
