@@ -13,6 +13,7 @@ is given to it as it is, and it does not read it. ``pupil_apriltags`` and ``matp
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,27 @@ def marker_patch(peer: str, marker_id: int = MARKER_ID, side_px: int = 400) -> N
     return np.asarray(cv2.copyMakeBorder(marker, q, q, q, q, cv2.BORDER_CONSTANT, value=255), np.uint8)
 
 
+def _release_apriltag(detector: Any) -> None:
+    """Free a ``pupil_apriltags.Detector``: the detector, then its tag families.
+
+    pupil-apriltags 1.0.4 frees the families first, and then the detector, which still refers to
+    them (a use-after-free in ``quick_decode_uninit``; pupil-labs/apriltags pull request 65). A
+    benchmark that had built frames of 1280 × 960 px aborted at exit with
+    "malloc(): mismatching next->prev_size" after printing its figures. Its own ``__del__`` then
+    finds nothing left to free.
+    """
+    if detector.tag_detector_ptr is None:
+        return
+    lib = detector.libc
+    lib.apriltag_detector_destroy.restype = None
+    lib.apriltag_detector_destroy(detector.tag_detector_ptr)
+    for family, pointer in detector.tag_families.items():
+        destroy = getattr(lib, f"{family}_destroy")
+        destroy.restype = None
+        destroy(pointer)
+    detector.tag_detector_ptr = None
+
+
 class PeerReader:
     """Both peers' detectors with default parameters: ids read, and corners in ArUco's order."""
 
@@ -55,6 +77,8 @@ class PeerReader:
         inverted.detectInvertedMarker = True
         self.aruco_inverted = cv2.aruco.ArucoDetector(aruco_dictionary(PEERS[0]), inverted)
         self.apriltag = AprilTagDetector()
+        # (freed in the right order when the reader goes or the interpreter exits)
+        weakref.finalize(self, _release_apriltag, self.apriltag)
 
     def corners(self, peer: str, image: NDArray[np.uint8], inverted: bool = False) -> dict[int, NDArray[np.float64]]:
         """Marker id → its 4 corners (top-left, top-right, bottom-right, bottom-left; pixels)."""
