@@ -4,20 +4,26 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, Literal
+from typing import Any
 
 import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode.image import DIM_SMOOTHING_PX, frame_departure, threshold_offset
+from ottag_db.decode.binarize import (
+    HALF_RES_MIN_SIDE,
+    LOCAL_PASSES,
+    Binarization,
+    Binarized,
+    binarize,
+    searches_at_half_resolution,
+)
 from ottag_db.decode.outlines import (
     SPIKE_MAX_HOLES,
     at_frame_edge,
     cut_by_frame_only,
     data_area_inside,
-    holes_at_frame_edge,
     lines_outline,
     without_spikes,
 )
@@ -33,19 +39,14 @@ __all__ = [
     "SMALL_QUAD_SIDE",
     "TRIANGLE_HOLDER_MIN_HOLES",
     "Binarization",
+    "Binarized",
+    "binarize",
     "find_quads",
     "searches_at_half_resolution",
 ]
 
 _F64 = NDArray[np.float64]
 
-#: How a frame is binarized for the quad search: local mean, global Otsu or local range
-#: threshold (see :func:`find_quads`).
-Binarization = Literal["adaptive", "adaptive_dim", "otsu", "adaptive_thin", "bright_holes", "local_range"]
-
-#: The half-resolution candidate search is used only while the smallest data area keeps at
-#: least this side (px) there.
-HALF_RES_MIN_SIDE = 6.0
 #: The full-resolution pass for thin quads (``"adaptive_thin"``, run on a frame that read nothing)
 #: also keeps dark quads whose shortest side is under this (px), thin or not: at half resolution
 #: a normal data area of 18 px (a 21 cm tag at 8 m) is 9 px wide, and blur and noise there
@@ -105,14 +106,16 @@ RANGE_MAX_QUADS = 8
 TRIANGLE_HOLDER_MIN_HOLES = 3
 #: The printed quiet zone's outline in data-area units (corners in the unit square's order).
 _QUIET_OUTLINE = (UNIT_SQUARE - 0.5) * (1 + 2 * QUIET_ZONE) + 0.5
-#: The local passes that search the whole frame (at half resolution when it can): they also
-#: outline holes cut by the frame's edge; with Otsu's, they outline regions by lines.
-_LOCAL_PASSES = ("adaptive", "adaptive_dim", "local_range")
-_LINES_PASSES = (*_LOCAL_PASSES, "otsu")
+#: The passes that outline regions by lines: the local ones, which search the whole frame, and Otsu's.
+_LINES_PASSES = (*LOCAL_PASSES, "otsu")
 
 
 def find_quads(
-    gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams, departure: float | None = None
+    gray: NDArray[np.uint8],
+    kind: Binarization,
+    params: DetectorParams,
+    departure: float | None = None,
+    binarized: Binarized | None = None,
 ) -> list[Quad]:
     """Convex quadrilateral contours of one binarization of ``gray``, largest first.
 
@@ -155,6 +158,9 @@ def find_quads(
         here for the passes that need it when not given): the Otsu pass runs only when it
         reaches ``min_contrast`` (see :func:`~ottag_db.decode.image.frame_has_contrast`), and it
         sets the ``"adaptive_dim"`` pass's offset.
+    binarized : Binarized, optional
+        The pass's mask and contours, traced already (:func:`~ottag_db.decode.binarize.binarize`
+        of the same frame, pass, settings and departure); traced here when not given.
 
     Returns
     -------
@@ -164,43 +170,20 @@ def find_quads(
     """
     p = params
     h, w = gray.shape
-    # The automatic local threshold searches the image at half resolution (a quarter of the
-    # pixels to threshold and trace) when even the smallest data area keeps sides of
-    # ``HALF_RES_MIN_SIDE`` px there; quads are mapped back (half-res pixel u covers image
-    # pixels 2u, 2u + 1: centre 2u + 0.5) and their sides are refined on the full image.
-    f = 1
-    block = p.adaptive_block or max(15, (min(h, w) // 16) | 1)  # local mean window (px)
-    if departure is None and kind in ("adaptive_dim", "otsu"):
-        departure = frame_departure(gray)
-    offset = p.adaptive_c if departure is None or kind != "adaptive_dim" else threshold_offset(departure, p.adaptive_c)
-    if kind == "otsu":
-        if departure is not None and departure < p.min_contrast:  # (see image.frame_has_contrast)
-            return []  # (the mask below keeps OpenCV's threshold of the whole frame)
-        _, mask = cv2.threshold(gray, 0, 255, cv2.THRESH_BINARY_INV | cv2.THRESH_OTSU)
-    elif kind == "bright_holes":
-        mask = cv2.adaptiveThreshold(gray, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY, block, -p.adaptive_c)
-    else:
-        src: NDArray[Any] = gray
-        if kind in _LOCAL_PASSES and searches_at_half_resolution(gray.shape, p):
-            f = 2
-            src = cv2.resize(gray, (w // 2, h // 2), interpolation=cv2.INTER_AREA)
-            block = max(7, (block // 2) | 1)
-        if kind == "adaptive_dim":  # a dim frame: its sensor noise nears the lowered offset
-            src = cv2.GaussianBlur(src, (0, 0), DIM_SMOOTHING_PX)
-        if kind == "local_range":
-            mask = _range_mask(src, block, p.min_contrast)
-        else:
-            mask = cv2.adaptiveThreshold(src, 255, cv2.ADAPTIVE_THRESH_MEAN_C, cv2.THRESH_BINARY_INV, block, offset)
+    # (half-resolution quads are mapped back: half-res pixel u covers image pixels 2u, 2u + 1,
+    # centre 2u + 0.5; their sides are refined on the full image)
+    b = binarize(gray, kind, p, departure) if binarized is None else binarized
+    if b is None:
+        return []
+    mask, contours, hier, f, min_len = b.mask, b.contours, b.hierarchy, b.scale, b.min_len
     want_normal = "normal" in p.polarities
     want_inverted = "inverted" in p.polarities
-    min_len = 4 * p.min_quad_side_px / f
     min_area = max(p.min_quad_area_px, p.min_quad_side_px**2)
     max_area = 0.95 * h * w
     quads: list[Quad] = []
-    contours, hier = cv2.findContours(mask, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     if hier is None:
         return quads
-    parents = hier[0][:, 3]
+    parents = hier[:, 3]
     # (contour, inverted, its length in px, its first hole or -1: a dark region with bright
     # holes holds triangles, maybe; the dark region a bright hole lies in, or -1)
     outlines: list[tuple[NDArray[Any], bool, float, int, int]] = []
@@ -215,14 +198,13 @@ def find_quads(
             inverted = False  # a dark hole in a bright quiet zone: a normal data area
         if (inverted and not want_inverted) or (not inverted and not want_normal):
             continue
-        outlines.append((c, inverted, int(lengths[i]), int(hier[0][i][2]), int(parents[i]) if inverted else -1))
-    if kind in _LOCAL_PASSES and want_inverted and p.outline_by_lines:
-        outlines.extend((c, True, len(c), -1, -1) for c in holes_at_frame_edge(mask, min_len))
+        outlines.append((c, inverted, int(lengths[i]), int(hier[i][2]), int(parents[i]) if inverted else -1))
+    outlines.extend((c, True, len(c), -1, -1) for c in b.edge_holes)
     # the last-resort passes also outline a data area cut into pieces (see _joined_holes): the
     # holes of the dark mask are bright areas (inverted), those of the bright mask dark (normal)
     joined_inverted = kind == "adaptive_thin"
     if kind in ("adaptive_thin", "bright_holes") and (want_inverted if joined_inverted else want_normal):
-        hulls = _joined_holes(contours, hier[0], min_len)
+        hulls = _joined_holes(contours, hier, min_len)
         outlines.extend((hull, joined_inverted, cv2.arcLength(hull, True), -1, -1) for hull in hulls)
     # (outline, inverted, length, first hole, its quad, outlined by lines, an opened ring)
     shaped: list[tuple[NDArray[Any], bool, float, int, NDArray[Any] | None, bool, bool]] = []
@@ -241,7 +223,7 @@ def find_quads(
         lines = lines and (inverted or holds_holes)
         if lines and region >= 0:  # a bright hole: one of a data area's triangles?
             if region not in holders:
-                holders[region] = _holds_triangles(contours, hier[0], region, min_len)
+                holders[region] = _holds_triangles(contours, hier, region, min_len)
             lines = not holders[region]
         if approx is not None or lines or opened:
             shaped.append((c, inverted, perimeter, first_hole, approx, lines, opened))
@@ -258,7 +240,7 @@ def find_quads(
             traced = approx
             approx = lines_outline(c, perimeter, mask.shape)
             if approx is None and not inverted:  # a bar or an occluder's edges as spikes?
-                approx = without_spikes(c, _holes(contours, hier[0], first_hole), mask.shape)
+                approx = without_spikes(c, _holes(contours, hier, first_hole), mask.shape)
             if approx is None and traced is not None:
                 # no runs outline it: a corner at the frame's edge cut by less than the outline's
                 # tolerance, which the polygon rounds off (judged below as a traced quad)
@@ -307,18 +289,6 @@ def find_quads(
             quads.append(cand)
     quads.sort(key=lambda qq: -qq.area)
     return quads[: RANGE_MAX_QUADS if kind == "local_range" else p.max_candidates]
-
-
-def _range_mask(src: NDArray[Any], block: int, min_range: float) -> NDArray[Any]:
-    """The dark mask of AprilTag's threshold: a pixel below the midpoint of the darkest and
-    brightest pixel of the ``block`` × ``block`` window about it, where the two differ by
-    ``min_range`` grey levels or more (erosion and dilation by the window, in OpenCV)."""
-    window = cv2.getStructuringElement(cv2.MORPH_RECT, (block, block))
-    darkest, brightest = cv2.erode(src, window), cv2.dilate(src, window)
-    midpoint = cv2.addWeighted(darkest, 0.5, brightest, 0.5, 0)
-    # (over min_range − 0.5: the range's whole grey levels from min_range on)
-    _, contrasted = cv2.threshold(cv2.subtract(brightest, darkest), min_range - 0.5, 255, cv2.THRESH_BINARY)
-    return np.asarray(cv2.bitwise_and(cv2.compare(src, midpoint, cv2.CMP_LT), contrasted))
 
 
 def _holds_triangles(
@@ -464,22 +434,3 @@ def _quiet_zone_miss(inner: NDArray[Any], outer: NDArray[Any]) -> float:
     s: list[list[float]] = seen.tolist()  # the four turns on 8 numbers: plain Python
     q: list[list[float]] = _QUIET_OUTLINE.tolist()
     return min(max(abs(a - b) for i in range(4) for a, b in zip(s[i - r], q[i], strict=True)) for r in range(4))
-
-
-def searches_at_half_resolution(shape: tuple[int, ...], params: DetectorParams) -> bool:
-    """Whether the ``"adaptive"`` pass of :func:`find_quads` runs at half resolution: with the
-    automatic window, on frames of at least 240 px, while the smallest data area keeps sides of
-    ``HALF_RES_MIN_SIDE`` px there.
-
-    Parameters
-    ----------
-    shape : tuple of int
-        ``(H, W)`` of the frame.
-    params : DetectorParams
-        ``adaptive_block`` and ``min_quad_side_px``.
-
-    Returns
-    -------
-    bool
-    """
-    return not params.adaptive_block and min(shape[:2]) >= 240 and params.min_quad_side_px >= 2 * HALF_RES_MIN_SIDE

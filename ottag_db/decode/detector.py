@@ -3,7 +3,7 @@
 Stages (each a module of :mod:`ottag_db.decode`, data between them in :mod:`.types`)::
 
     image        to_gray                          image → grey
-    candidates   find_quads                       grey → Quad (adaptive, then Otsu, then thin quads,
+    candidates   binarize, find_quads             grey → Binarized → Quad (adaptive, then Otsu, then thin quads,
                                                   then holes of the bright mask, then the local
                                                   range for blurred tags; seen_before: a
                                                   foreshortened one outlined anew is read again,
@@ -29,8 +29,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import TagLookup
+from ottag_db.decode.binarize import Binarization, searches_at_half_resolution
 from ottag_db.decode.blur import BLURRED_MIN_SIDE, BLURRED_MIN_SIGMA, EdgeBlur, edge_blur
-from ottag_db.decode.candidates import Binarization, find_quads, searches_at_half_resolution
+from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import frame_departure, threshold_offset, to_gray
 from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_scores
