@@ -180,11 +180,12 @@ class Detector:
         Returns
         -------
         DetectionReport
-            ``timings`` in seconds per stage name, in pipeline order.
+            ``timings`` in seconds per stage name, in pipeline order; ``passes`` in seconds
+            per candidate pass that ran.
         """
         clock = StageClock()
         detections, rejected = self._run(image, clock)
-        return DetectionReport(detections, rejected, clock.timings())
+        return DetectionReport(detections, rejected, clock.timings(), clock.pass_timings())
 
     # ------------------------------------------------------------------ stages in order
     def _run(self, image: object, clock: StageClock) -> tuple[list[Detection], list[Rejected]]:
@@ -231,6 +232,7 @@ class Detector:
                 departure = frame_departure(gray) if departure is None else departure  # (measured once)
                 if kind == "adaptive_dim" and threshold_offset(departure, p.adaptive_c) >= p.adaptive_c:
                     continue  # not a dim frame
+            clock.start_pass(kind)
             found = find_quads(gray, kind, p, departure)
             if kind == "local_range":  # a blurred tag outlined anew: its edges' midpoints, not a
                 # threshold's notched or shrunk outline; again unless it was read as blurred before
@@ -331,6 +333,7 @@ class Detector:
                     rejected.append(result.at(quad))
                 elif not any(same_tag(result, d) for d in detections):
                     detections.append(result)
+        clock.end_passes()
         return [in_frame_corners(d, gray.shape) for d in detections], rejected
 
     def _blurred_tag(self, gray: NDArray[np.uint8], quad: Quad) -> tuple[EdgeBlur, float, Quad] | None:

@@ -163,12 +163,17 @@ class DetectionReport:
     """Everything one :meth:`~ottag_db.decode.Detector.detect_with_report` call found.
 
     ``timings`` holds ``(stage, seconds)`` for every stage of :data:`STAGES`, in that order
-    (wall time spent in the stage over all candidates of the frame).
+    (wall time spent in the stage over all candidates of the frame); ``passes`` holds
+    ``(pass, seconds)`` for each candidate pass that ran (a binarization of
+    :func:`~ottag_db.decode.candidates.find_quads`: ``"adaptive"``, ``"otsu"``, …), in order,
+    from its start to the next one's, its readings included: a frame that reads nothing in the
+    first pass runs the later ones too.
     """
 
     detections: list[Detection]
     rejected: list[Rejected]
     timings: tuple[tuple[StageName, float], ...]
+    passes: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)

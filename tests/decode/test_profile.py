@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+import numpy as np
+
 from ottag_db.decode import STAGES, Detector
 from ottag_db.decode.profile import StageClock
 from tests.support import synthetic_tags as syn
@@ -35,3 +37,34 @@ def test_detect_with_report() -> None:
     assert all(v >= 0 for v in spent.values())
     assert spent["refine"] > 0 and spent["verify"] > 0
     assert sum(spent.values()) <= wall
+
+
+def test_clock_times_each_pass_from_its_start_to_the_next() -> None:
+    clock = StageClock()
+    assert clock.pass_timings() == ()
+    clock.start_pass("adaptive")
+    time.sleep(0.01)
+    clock.start_pass("otsu")
+    clock.end_passes()
+    (first, long), (second, short) = clock.pass_timings()
+    assert (first, second) == ("adaptive", "otsu")
+    assert long >= 0.009 and 0 <= short < long
+
+
+def test_report_times_the_passes_that_ran() -> None:
+    """A frame whose tag reads in the first pass runs that pass alone; a frame without a tag runs
+    the later ones too (Otsu's only where the frame has contrast), each timed once, in order."""
+    det = Detector(syn.lookup())
+    tag = syn.draw_tags((300, 400), [(200, (40, 50))])
+    t0 = time.perf_counter()
+    report = det.detect_with_report(tag)
+    wall = time.perf_counter() - t0
+    assert [name for name, _ in report.passes] == ["adaptive"]
+    assert 0 < report.passes[0][1] <= wall
+    rng = np.random.default_rng(1)
+    texture = np.clip(rng.normal(128, 40, (300, 400)), 0, 255).astype(np.uint8)
+    report = det.detect_with_report(texture)
+    names = [name for name, _ in report.passes]
+    assert report.detections == [] and names[:2] == ["adaptive", "otsu"] and "local_range" in names
+    assert len(set(names)) == len(names) and all(seconds >= 0 for _, seconds in report.passes)
+    assert sum(seconds for _, seconds in report.passes) <= sum(seconds for _, seconds in report.timings) + 1e-3
