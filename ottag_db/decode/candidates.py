@@ -15,7 +15,6 @@ from ottag_db.decode.binarize import (
     HALF_RES_MIN_SIDE,
     LOCAL_PASSES,
     Binarization,
-    Binarized,
     binarize,
     searches_at_half_resolution,
 )
@@ -39,8 +38,6 @@ __all__ = [
     "SMALL_QUAD_SIDE",
     "TRIANGLE_HOLDER_MIN_HOLES",
     "Binarization",
-    "Binarized",
-    "binarize",
     "find_quads",
     "searches_at_half_resolution",
 ]
@@ -111,11 +108,7 @@ _LINES_PASSES = (*LOCAL_PASSES, "otsu")
 
 
 def find_quads(
-    gray: NDArray[np.uint8],
-    kind: Binarization,
-    params: DetectorParams,
-    departure: float | None = None,
-    binarized: Binarized | None = None,
+    gray: NDArray[np.uint8], kind: Binarization, params: DetectorParams, departure: float | None = None
 ) -> list[Quad]:
     """Convex quadrilateral contours of one binarization of ``gray``, largest first.
 
@@ -158,9 +151,6 @@ def find_quads(
         here for the passes that need it when not given): the Otsu pass runs only when it
         reaches ``min_contrast`` (see :func:`~ottag_db.decode.image.frame_has_contrast`), and it
         sets the ``"adaptive_dim"`` pass's offset.
-    binarized : Binarized, optional
-        The pass's mask and contours, traced already (:func:`~ottag_db.decode.binarize.binarize`
-        of the same frame, pass, settings and departure); traced here when not given.
 
     Returns
     -------
@@ -172,7 +162,7 @@ def find_quads(
     h, w = gray.shape
     # (half-resolution quads are mapped back: half-res pixel u covers image pixels 2u, 2u + 1,
     # centre 2u + 0.5; their sides are refined on the full image)
-    b = binarize(gray, kind, p, departure) if binarized is None else binarized
+    b = binarize(gray, kind, p, departure)  # the pass's mask and contours (OpenCV's work)
     if b is None:
         return []
     mask, contours, hier, f, min_len = b.mask, b.contours, b.hierarchy, b.scale, b.min_len

@@ -1,5 +1,5 @@
-"""The candidate passes' binarizations (:mod:`ottag_db.decode.binarize`): a pass outlines the same
-quads from a binarization traced before as from its own."""
+"""The candidate passes' binarizations (:mod:`ottag_db.decode.binarize`): each pass's mask and
+contours at its scale."""
 
 from __future__ import annotations
 
@@ -8,14 +8,13 @@ from typing import Any, get_args
 import numpy as np
 
 from ottag_db.decode import DetectorParams
-from ottag_db.decode.binarize import Binarization, binarize
+from ottag_db.decode.binarize import LOCAL_PASSES, Binarization, binarize
 from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.image import frame_departure
 from ottag_db.printing import clutter
 from ottag_db.printing import scenes as sc
 
-#: A normal 8-point tag nearly edge-on (84°, a pose of the tilt sweep, as in test_edge_on.py): the
-#: passes for thin quads and bright holes outline it.
+#: A normal 8-point tag nearly edge-on (84°, a pose of the tilt sweep, as in test_edge_on.py).
 _EDGE_ON = (
     "8:06543210006254311003654224304323310206",
     [[60.419384, -33.663727, 317.052953], [78.800176, -63.758253, 282.174458], [0.137874, 0.067553, 1]],
@@ -32,19 +31,10 @@ def _edge_on_frame(bundled: Any) -> tuple[str, np.ndarray]:
     return tag.lambda_text, image
 
 
-def _encoded(x: Any) -> Any:
-    """A detector's output as plain values: arrays as their bytes, dataclasses field by field."""
-    if isinstance(x, np.ndarray):
-        return (x.dtype.str, x.shape, x.tobytes())
-    if isinstance(x, list | tuple):
-        return [_encoded(y) for y in x]
-    if hasattr(x, "__dataclass_fields__"):
-        return [_encoded(getattr(x, f)) for f in x.__dataclass_fields__]
-    return x
-
-
-def test_find_quads_of_a_binarization_traced_before_are_those_traced_now(bundled):
-    """Every pass outlines the same quads from :func:`binarize`'s trace as when it traces itself."""
+def test_each_pass_traces_its_mask_at_its_scale(bundled):
+    """The local passes search a 640 × 480 frame at half resolution, the others at full; every
+    contour has its row of the hierarchy, and only the local passes trace the holes at the
+    frame's edge."""
     _, image = _edge_on_frame(bundled)
     frames = [image, *clutter.clutter_frames(np.random.default_rng(3), 2)]
     params = DetectorParams()
@@ -52,6 +42,17 @@ def test_find_quads_of_a_binarization_traced_before_are_those_traced_now(bundled
         departure = frame_departure(gray)
         for kind in get_args(Binarization):
             traced = binarize(gray, kind, params, departure)
-            assert traced is None or traced.kind == kind
-            now = find_quads(gray, kind, params, departure)
-            assert _encoded(find_quads(gray, kind, params, departure, traced)) == _encoded(now)
+            assert traced is not None and traced.kind == kind
+            local = kind in LOCAL_PASSES
+            assert traced.scale == (2 if local else 1)
+            assert traced.mask.shape == (480 // traced.scale, 640 // traced.scale)
+            assert traced.min_len == 4 * params.min_quad_side_px / traced.scale
+            assert traced.hierarchy is not None and traced.hierarchy.shape == (len(traced.contours), 4)
+            assert local or traced.edge_holes == ()
+
+
+def test_otsu_has_no_mask_on_a_frame_without_contrast():
+    """Otsu's pass, on a frame that departs nowhere by ``min_contrast``, traces nothing."""
+    flat = np.full((480, 640), 128, np.uint8)
+    assert binarize(flat, "otsu", DetectorParams()) is None
+    assert find_quads(flat, "otsu", DetectorParams()) == []
