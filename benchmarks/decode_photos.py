@@ -15,7 +15,10 @@ defaults) in the same run:
 
 Prints per set the mean and the slowest frame's ms (best of ``--passes`` runs each), the ratios
 to ArUco and AprilTag, detections, and our time per stage and per candidate pass; and for the photographs each frame's
-times. The time targets of the decoder design (issue 37): mean ≤ 1.5 × ArUco's on the
+times, and ours again with settings that trade readings for time: a lookup of
+:data:`SMALL_LOOKUP` order types (the size of AprilTag 36h11's family; fewer templates to read
+by model) and no reading by model (``DetectorParams(model_match=False)``; what it gives up:
+``decode_sweeps.py --without-model``). The time targets of the decoder design (issue 37): mean ≤ 1.5 × ArUco's on the
 photographs and no frame there over 3 × ArUco's slowest; ≤ 1.0 × ArUco's and ≤ AprilTag's with a
 tag. Needs ``pip install '.[bench]'`` (scikit-image, pupil-apriltags).
 """
@@ -33,7 +36,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from ottag_db.decode import STAGES, Detector
+from ottag_db.core.lookup import MemoryLookup
+from ottag_db.decode import STAGES, Detector, DetectorParams
 from ottag_db.printing import scenes
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -48,6 +52,8 @@ PHOTOS = (
 )  # fmt: skip
 
 _U8 = NDArray[np.uint8]
+#: Order types of the small lookup of the settings rows (AprilTag 36h11 has 587 codes).
+SMALL_LOOKUP = 587
 #: The whole frame as a patch for ``render_scene(extra=...)``: unit square → 640×480 pixels.
 _FRAME = np.array([[640.0, 0, -0.5], [0, 480.0, -0.5], [0, 0, 1]])
 
@@ -131,6 +137,24 @@ def stage_means(det: Detector, frames: Sequence[_U8]) -> tuple[str, str]:
     return ", ".join(f"{stage} {ms:.1f}" for stage, ms in spent.items() if ms >= 0.05), per_pass
 
 
+def settings_rows(lookup: MemoryLookup, photos: Sequence[_U8], aruco: list[float], passes: int) -> None:
+    """Ours on the photographs with a small lookup (the first :data:`SMALL_LOOKUP` k = 8 order
+    types by ID) and without reading by model: mean and slowest ms, each against ArUco's, and
+    the time of each candidate pass (one more run)."""
+    small = MemoryLookup(sorted((e for e in lookup if e.k == 8), key=lambda e: e.lambda_text)[:SMALL_LOOKUP])
+    for label, det in (
+        (f"a lookup of {len(small)} order types", Detector(small)),
+        ("no reading by model", Detector(lookup, DetectorParams(model_match=False))),
+    ):
+        det.detect(photos[0])
+        times, count = frame_times(lambda f, d=det: len(d.detect(f)), photos, passes)
+        print(
+            f"  ours, {label}: mean {np.mean(times):6.2f} ms ({np.mean(times) / np.mean(aruco):.1f}× ArUco),"
+            f" slowest {max(times):6.2f} ms ({max(times) / max(aruco):.1f}× ArUco's slowest), detections: {count}"
+        )
+        print(f"    its candidate passes, ms/frame: {stage_means(det, photos)[1]}")
+
+
 def _row(label: str, times: list[float], count: int, of: str) -> None:
     print(f"  {label:<9} mean {np.mean(times):7.2f} ms   slowest {max(times):7.2f} ms   {of}: {count}")
 
@@ -171,6 +195,7 @@ def main(tags_count: int, seed: int, passes: int) -> None:
     print("  per frame, ms (ours / ArUco / AprilTag):")
     for name, a, b, c in zip(names, t_ours, t_aruco, t_april, strict=True):
         print(f"    {name:<22} {a:7.2f} {b:6.2f} {c:6.2f}")
+    settings_rows(lookup, photos, t_aruco, passes)
 
     print(f"one tag or marker on a photograph ({tags_count} frames, seed {seed}): tags read")
     t_ours, n_ours = frame_times(lambda f: int(bool(det.detect(f))), ours_tag, passes)

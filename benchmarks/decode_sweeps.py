@@ -1,6 +1,7 @@
 """Decode rate against tilt and distance: Order Type Tags beside ArUco 6×6 and AprilTag 3, printed and plotted.
 
-Usage: python benchmarks/decode_sweeps.py [--trials N] [--plot sweeps.png] [--compare] [--seed S] [--paired]
+Usage: python benchmarks/decode_sweeps.py [--trials N] [--plot sweeps.png] [--compare | --without-model] [--seed S]
+                                          [--paired]
 A 21 cm data area seen by a 640×480 camera with f = 700 px: a tilt sweep at 1.5 m (0 … 89°) and a
 distance sweep (0.5 … 8 m, tilt 0–30°), each for normal and inverted tags. Each condition renders
 ``N`` scenes (random in-plane rotation, tilt axis, position near the centre, blur σ ≤ 0.8 px,
@@ -12,7 +13,9 @@ the same size (``peers.py``: default detectors; inverted: the marker's tones swa
 ``detectInvertedMarker``, AprilTag 3 has no inverted mode). A detection of another ID counts as
 wrong (printed; must stay 0). ``--compare`` also runs our decoder without the rectified retry
 (``DetectorParams(rectify=False)``) on the same frames: the column ``direct``, its wrong IDs in
-parentheses. For our failures
+parentheses; ``--without-model`` the same without reading by model
+(``DetectorParams(model_match=False)``, the column ``no model``: what that setting, 2× faster on
+frames of clutter, gives up). For our failures
 the most frequent rejection reason of each row is printed. ``--paired`` renders the same
 scenes (tag, pose, degradations) in both polarities, so the normal/inverted gap of a row measures
 the decoder and not the draw of the poses: with independent draws, one trial of 30 is 3.3 points
@@ -52,10 +55,10 @@ class Row:
 
     trials: int = 0
     ours: int = 0
-    direct: int = 0
+    other: int = 0  # the second decoder's reads (--compare, --without-model)
     peers: Counter[str] = field(default_factory=Counter)
     wrong: int = 0
-    wrong_direct: int = 0
+    wrong_other: int = 0
     reasons: Counter[str] = field(default_factory=Counter)
 
     def rate(self, n: int) -> float:
@@ -65,13 +68,13 @@ class Row:
 class Sweep:
     """The detectors, tags and marker of one benchmark run."""
 
-    def __init__(self, compare: bool) -> None:
+    def __init__(self, other: DetectorParams | None) -> None:
         with tempfile.TemporaryDirectory() as tmp:
             lookup, records = bundled_tags(Path(tmp))
         k8 = sorted((r for r in records if r.k == 8), key=lambda r: -r.mp)
         self.recs = [drawable(r) for r in k8[:24]]
         self.det = Detector(lookup)
-        self.direct = Detector(lookup, DetectorParams(rectify=False)) if compare else None
+        self.other = Detector(lookup, other) if other is not None else None
         self.peers = PeerReader()
         self.markers = {peer: marker_patch(peer) for peer in PEERS}
         self.k_mat = scenes.camera_matrix(F, 640, 480)
@@ -100,10 +103,10 @@ class Sweep:
             row.wrong += sum(d.lambda_text != rec.lambda_text for d in dets)
             if not ok:
                 row.reasons[rejected[0].reason if rejected else "no_candidate"] += 1
-            if self.direct is not None:
-                read = [d.lambda_text for d in self.direct.detect(img)]
-                row.direct += rec.lambda_text in read
-                row.wrong_direct += sum(x != rec.lambda_text for x in read)
+            if self.other is not None:
+                read = [d.lambda_text for d in self.other.detect(img)]
+                row.other += rec.lambda_text in read
+                row.wrong_other += sum(x != rec.lambda_text for x in read)
             for peer, patch in self.markers.items():
                 marker = patch if pol == "normal" else np.asarray(255 - patch, np.uint8)
                 img_m = scenes.render_scene(
@@ -120,24 +123,26 @@ class Sweep:
         return row
 
 
-def _print_row(label: str, rows: dict[Polarity, Row], compare: bool) -> None:
+def _print_row(label: str, rows: dict[Polarity, Row], other: str | None) -> None:
+    """One condition's rates, both polarities (``other``: the second decoder's column name)."""
     parts = [label]
     for pol in ("normal", "inverted"):
         r = rows[pol]
         parts.append(f"{r.rate(r.ours):5.2f}")
-        if compare:
-            parts.append(f"{r.rate(r.direct):6.2f}")
+        if other:
+            parts.append(f"{r.rate(r.other):{len(other)}.2f}")
         parts += [f"{r.rate(r.peers[peer]):5.2f}" for peer in PEERS]
     wrong = sum(r.wrong for r in rows.values())
     reasons = rows["normal"].reasons + rows["inverted"].reasons
-    parts.append(f"{wrong:5d}" + (f" ({sum(r.wrong_direct for r in rows.values())})" if compare else ""))
+    parts.append(f"{wrong:5d}" + (f" ({sum(r.wrong_other for r in rows.values())})" if other else ""))
     parts.append(" ".join(f"{k}:{v}" for k, v in reasons.most_common(3)))
     print("  ".join(parts), flush=True)
 
 
-def _header(first: str, compare: bool) -> None:
-    cols = ["ours", "direct", "ArUco", "April"] if compare else ["ours", "ArUco", "April"]
-    norm = "  ".join(f"{c:>5}" for c in cols)
+def _header(first: str, other: str | None) -> None:
+    """The table's two header lines (``other``: the second decoder's column)."""
+    cols = ["ours", other, "ArUco", "April"] if other else ["ours", "ArUco", "April"]
+    norm = "  ".join(f"{c:>5}" for c in cols)  # (the second decoder's column as wide as its name)
     print(f"{first}  {'normal':^{len(norm)}}  {'inverted':^{len(norm)}}  wrong  our failures")
     print(f"{' ' * len(first)}  {norm}  {norm}")
 
@@ -153,8 +158,16 @@ def _series(rows: list[dict[Polarity, Row]]) -> dict[str, list[float]]:
     return out
 
 
-def main(trials: int, plot: str | None, compare: bool, seed: int, paired: bool = False) -> None:
-    sweep = Sweep(compare)
+#: The second decoders of ``--compare`` and ``--without-model``: column name and settings.
+OTHERS = {
+    "compare": ("direct", DetectorParams(rectify=False)),
+    "without_model": ("no model", DetectorParams(model_match=False)),
+}
+
+
+def main(trials: int, plot: str | None, other: str | None, seed: int, paired: bool = False) -> None:
+    column, params = OTHERS[other] if other else (None, None)
+    sweep = Sweep(params)
     rng = np.random.default_rng(seed)
     pols: tuple[Polarity, Polarity] = ("normal", "inverted")
 
@@ -168,22 +181,22 @@ def main(trials: int, plot: str | None, compare: bool, seed: int, paired: bool =
         print("paired: the same scenes in both polarities")
     width = F * SIZE / TILT_DISTANCE
     print(f"tilt sweep: 21 cm tag at {TILT_DISTANCE} m (data area {width:.0f} px frontal), {trials} trials each")
-    _header("tilt°", compare)
+    _header("tilt°", column)
     tilt_rows = []
     for tilt in TILTS:
         rows = both(width, (tilt, tilt))
         tilt_rows.append(rows)
-        _print_row(f"{tilt:5d}", rows, compare)
+        _print_row(f"{tilt:5d}", rows, column)
     print(f"distance sweep: tilt 0–30°, {trials} trials each")
-    _header("dist m    px", compare)
+    _header("dist m    px", column)
     dist_rows = []
     for d in DISTANCES:
         rows = both(F * SIZE / d, (0, 30))
         dist_rows.append(rows)
-        _print_row(f"{d:6.1f}  {F * SIZE / d:4.0f}", rows, compare)
+        _print_row(f"{d:6.1f}  {F * SIZE / d:4.0f}", rows, column)
     wrong = sum(r.wrong for rows in tilt_rows + dist_rows for r in rows.values())
-    direct = sum(r.wrong_direct for rows in tilt_rows + dist_rows for r in rows.values())
-    print(f"wrong IDs in all conditions: {wrong}" + (f" (direct: {direct})" if compare else ""))
+    second = sum(r.wrong_other for rows in tilt_rows + dist_rows for r in rows.values())
+    print(f"wrong IDs in all conditions: {wrong}" + (f" ({column}: {second})" if column else ""))
     if plot:
         # the tilt panel from PLOT_FROM_TILT on, where the rates part (the printout has every row)
         steep = [i for i, tilt in enumerate(TILTS) if tilt >= PLOT_FROM_TILT]
@@ -201,8 +214,11 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--trials", type=int, default=30, help="scenes per condition and polarity")
     ap.add_argument("--plot", default=None, metavar="PATH", help="write the rates as a PNG (matplotlib)")
-    ap.add_argument("--compare", action="store_true", help="also run the decoder without the rectified retry")
+    others = ap.add_mutually_exclusive_group()
+    others.add_argument("--compare", action="store_true", help="also run the decoder without the rectified retry")
+    others.add_argument("--without-model", action="store_true", help="also run the decoder without reading by model")
     ap.add_argument("--seed", type=int, default=2018)
     ap.add_argument("--paired", action="store_true", help="the same scenes in both polarities")
     args = ap.parse_args()
-    main(args.trials, args.plot, args.compare, args.seed, args.paired)
+    other = "compare" if args.compare else "without_model" if args.without_model else None
+    main(args.trials, args.plot, other, args.seed, args.paired)
