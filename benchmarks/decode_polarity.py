@@ -34,7 +34,7 @@ POLARITIES: tuple[Polarity, Polarity] = ("normal", "inverted")
 
 
 def main(poses: int, tilts: Sequence[float], background: int, seed: int) -> None:
-    sweep = Sweep(compare=False)
+    sweep = Sweep(other=None)
     width = sweep.k_mat[0, 0] * SIZE / TILT_DISTANCE
     print(
         f"{poses} poses per tilt, each rendered normal and inverted; 21 cm data area at {TILT_DISTANCE} m "
