@@ -26,6 +26,7 @@ tag. Needs ``pip install '.[bench]'`` (scikit-image, pupil-apriltags).
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import tempfile
 import time
@@ -147,12 +148,17 @@ def settings_rows(lookup: MemoryLookup, photos: Sequence[_U8], aruco: list[float
         ("no reading by model", Detector(lookup, DetectorParams(model_match=False))),
     ):
         det.detect(photos[0])
-        times, count = frame_times(lambda f, d=det: len(d.detect(f)), photos, passes)
+        times, count = frame_times(functools.partial(_detections, det), photos, passes)
         print(
             f"  ours, {label}: mean {np.mean(times):6.2f} ms ({np.mean(times) / np.mean(aruco):.1f}× ArUco),"
             f" slowest {max(times):6.2f} ms ({max(times) / max(aruco):.1f}× ArUco's slowest), detections: {count}"
         )
         print(f"    its candidate passes, ms/frame: {stage_means(det, photos)[1]}")
+
+
+def _detections(det: Detector, frame: _U8) -> int:
+    """How many tags ``det`` reads in ``frame``."""
+    return len(det.detect(frame))
 
 
 def _row(label: str, times: list[float], count: int, of: str) -> None:
