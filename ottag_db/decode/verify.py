@@ -57,6 +57,13 @@ class LineSystem:
     ti_inv: _F64
 
 
+#: The rejection detail of a reading whose side lines are too few to fit a homography.
+_UNVERIFIABLE = (
+    "a {k}-point reading cannot be verified: its side lines do not fix a homography (8 needed);"
+    " decoding without verification (--no-verify, verify=False) reads its order type alone"
+)
+
+
 def line_system(lines: SideLines) -> LineSystem | None:
     """Stack and normalise the side lines of a hypothesis.
 
@@ -331,7 +338,9 @@ def assess(
     fits = [] if system is None else _fits(entry, pts, system, minimal, corners)
     if not fits:
         if p.verify:
-            return Assessment(Rejection("verification", "no realization", lambda_text), math.inf, bound)
+            # (a 3-point tag's points lie on 6 side lines: no homography to verify them with)
+            detail = "no realization" if system is not None else _UNVERIFIABLE.format(k=len(lines))
+            return Assessment(Rejection("verification", detail, lambda_text), math.inf, bound)
         unverified = Detection(
             lambda_text, entry.k, entry.order_type_id, entry.tag, quad.polarity, pts[list(minimal[0])], None,
             corners, None, None, margin,

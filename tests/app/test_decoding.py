@@ -162,3 +162,20 @@ def test_jpeg_damaged_in_the_middle_is_an_error(dbfile: Path, fig4_png: Path, tm
     assert [d["lambda"] for d in recs[0]["detections"]] == [TABLE9_TEXT]
     assert "damaged JPEG" in recs[1]["error"] and recs[1]["detections"] == []
     assert "Corrupt JPEG data" not in res.stderr and "1 of 2 file(s) could not be read" in res.stderr
+
+
+def test_a_three_point_tag_says_why_it_is_not_verified(runner: CliRunner, dbfile: Path, tmp_path: Path) -> None:
+    """A 3-point tag's points lie on 6 side lines, too few for a homography: the rejection says so
+    and names the way to read it; without verification the order type alone reads it."""
+    img = tmp_path / "k3.png"
+    assert runner.invoke(cli, ["render", "--db", str(dbfile), "3:010001100", str(img)]).exit_code == 0
+    res = runner.invoke(cli, ["decode", "--db", str(dbfile), "--json", str(img)])
+    assert res.exit_code == 0, res.output
+    rec = json.loads(res.stdout)
+    assert rec["detections"] == []
+    (why,) = [r for r in rec["rejections"] if r["lambda"] == "3:010001100"]
+    assert why["reason"] == "verification" and "3-point reading cannot be verified" in why["detail"]
+    assert "--no-verify" in why["detail"]
+    res = runner.invoke(cli, ["decode", "--db", str(dbfile), "--json", "--no-verify", str(img)])
+    assert res.exit_code == 0, res.output
+    assert [d["lambda"] for d in json.loads(res.stdout)["detections"]] == ["3:010001100"]
