@@ -1,7 +1,7 @@
 """Ray-traced frames degraded as real cameras degrade them: ours, ArUco and AprilTag 3 side by side.
 
 Usage: python benchmarks/decode_degraded.py [--poses N] [--seed S] [--cache DIR] [--plot PATH]
-       [--levels NAME ...] [--tag K:DIGITS] [--quiet]
+       [--levels NAME ...] [--tag K:DIGITS] [--params KEY=VALUE ...] [--quiet]
 
 The benchmark of issue 38 ("Decoder under real cameras"). POV-Ray (``benchmarks/povray.py``;
 Debian: ``apt-get install povray``) ray-traces a 640×480 camera with f = 700 px looking at one
@@ -30,6 +30,7 @@ by edge fits against its projected true corners); per polarity a table — rows 
 columns the reads of N by ours / ArUco / AprilTag 3, their wrong IDs, and whether ours reads at
 least as many as the better peer. ``--plot PATH`` writes reads against defocus σ and against
 motion-blur length (PNG, matplotlib). Progress goes to stderr (not with ``--quiet``).
+``--params KEY=VALUE ...`` reads our frames with other decoder settings (``settings.py``).
 
 The issue's target: at every level, ours ≥ the better of ArUco and AprilTag, normal and
 inverted tags, and zero wrong IDs. Needs POV-Ray and ``pip install '.[bench]'``. Rendered frames
@@ -52,12 +53,13 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from ottag_db.decode import Detector
+from ottag_db.decode import DEFAULT_PARAMS, Detector, DetectorParams
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decode_speed import bundled_tags  # the benchmarks next door
 from peers import MARKER_ID, PEERS, PeerReader, marker_patch, plot_lines
 from povray import FOCAL, Frame, Renderer, Scene, measure_corners, pose
+from settings import add_params_argument, describe, params_from
 
 _U8 = NDArray[np.uint8]
 #: The black square (our data area) in metres; the textures are 1.5 sides wide (white border).
@@ -139,8 +141,11 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def our_textures(folder: Path, tag: str | None) -> tuple[Detector, str, dict[str, _U8]]:
-    """The detector on the bundled lookup, the tag's ID and its texture per polarity (``ottag-db render``)."""
+def our_textures(
+    folder: Path, tag: str | None, params: DetectorParams = DEFAULT_PARAMS
+) -> tuple[Detector, str, dict[str, _U8]]:
+    """The detector on the bundled lookup with ``params``, the tag's ID and its texture per polarity
+    (``ottag-db render``)."""
     lookup, records = bundled_tags(folder)
     if tag is None:
         chosen = max((r for r in records if r.k == 8 and r.unique_min), key=lambda r: r.printed_mp_unit)
@@ -156,7 +161,7 @@ def our_textures(folder: Path, tag: str | None) -> tuple[Detector, str, dict[str
         cmd += [chosen.lambda_text, str(png), "--px", "800", "--polarity", polarity]
         subprocess.run(cmd, check=True, capture_output=True)
         textures[polarity] = np.asarray(cv2.imread(str(png), cv2.IMREAD_GRAYSCALE), np.uint8)
-    return Detector(lookup), chosen.lambda_text, textures
+    return Detector(lookup, params), chosen.lambda_text, textures
 
 
 def progress(quiet: bool, text: str, end: str = "\n") -> None:
@@ -231,7 +236,7 @@ def read_row(
 def main(args: argparse.Namespace, rows: Sequence[Degradation]) -> None:
     quiet = args.quiet
     with tempfile.TemporaryDirectory() as tmp:
-        det, tag_id, ours = our_textures(Path(tmp), args.tag)
+        det, tag_id, ours = our_textures(Path(tmp), args.tag, args.detector_params)
         cache = args.cache if args.cache is not None else Path(tmp) / "frames"
         textures = {("ours", pol): ours[pol] for pol in POLARITIES}
         for peer in PEERS:
@@ -246,7 +251,7 @@ def main(args: argparse.Namespace, rows: Sequence[Degradation]) -> None:
             f"{args.poses} poses (seed {args.seed}): {SQUARE_M * 100:.0f} cm black square at {DISTANCE_M} m "
             f"({SQUARE_M * FOCAL / DISTANCE_M:.0f} px frontal), tilt −{TILT:g}…+{TILT:g}°, roll {ROLL:g}°; "
             f"POV-Ray 640×480, f = {FOCAL:g} px; "
-            f"our tag {tag_id}"
+            f"our tag {tag_id}; our settings: {describe(args.detector_params)}"
         )
         print(
             f"frames: {len(textures) * args.poses} ({renderer.rendered} rendered, the rest from the cache) "
@@ -315,7 +320,9 @@ if __name__ == "__main__":
     parser.add_argument("--levels", nargs="+", metavar="NAME", help=rows_help)
     parser.add_argument("--tag", metavar="K:DIGITS", help="our tag [the matchable k = 8 tag of largest printed MP]")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    add_params_argument(parser)
     args = parser.parse_args()
+    args.detector_params = params_from(args.params, parser)
     if args.poses < 1:
         parser.error("--poses must be at least 1")
     rows = list(ROWS)

@@ -1,6 +1,6 @@
 """Hidden border: tags partly covered, or cut by the image edge — ours beside ArUco and AprilTag 3.
 
-Usage: python benchmarks/decode_occlusion.py [--poses N] [--seed S]
+Usage: python benchmarks/decode_occlusion.py [--poses N] [--seed S] [--save DIR] [--params KEY=VALUE ...]
 
 The same poses (640×480, f = 700 px; data area 110–170 px wide as a 21 cm tag at 70–110 cm,
 tilt 0–45°, camera blur σ 0.5–0.9 px, noise, JPEG 85) are drawn with one 8-point tag (normal
@@ -32,12 +32,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.types import QUIET_ZONE, Polarity
-from ottag_db.decode import Detector
+from ottag_db.decode import DEFAULT_PARAMS, Detector, DetectorParams
 from ottag_db.printing import scenes
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decode_speed import bundled_tags, drawable  # the benchmarks next door
 from peers import MARKER_ID, PATCH_TO_DATA_AREA, PEERS, PeerReader, marker_patch
+from settings import add_params_argument, describe, params_from
 
 CASES = ("bar", "covered corner", "cut corner", "corner at edge")
 #: How far one corner lies outside the frame, of the side, per case that shifts the frame
@@ -103,15 +104,16 @@ def _hide(image: _U8, hom: _F64, poly: _F64 | None, grey: int) -> _U8:
     return out
 
 
-def main(poses: int, seed: int, save: str | None = None) -> None:
+def main(poses: int, seed: int, save: str | None = None, params: DetectorParams = DEFAULT_PARAMS) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         lookup, records = bundled_tags(Path(tmp))
-    det = Detector(lookup)
+    det = Detector(lookup, params)
     reader = PeerReader()
     tags = [drawable(t) for t in records if t.k == 8 and scenes.min_width_px(t.printed_mp_unit) <= 100]
     markers = {peer: marker_patch(peer) for peer in PEERS}
     rng = np.random.default_rng(seed)
     print(f"{poses} poses per case (seed {seed}); read / wrong IDs; ours: largest corner error of the reads")
+    print(f"our settings: {describe(params)}")
     print(f"{'case':<16} {'polarity':<9} {'ours':>10} {'corner err':>11} {'ArUco':>8} {'AprilTag':>9}")
     for case in CASES:
         for polarity in ("normal", "inverted"):
@@ -169,7 +171,9 @@ if __name__ == "__main__":
     parser.add_argument("--poses", type=int, default=40, help="poses per case and polarity (default 40)")
     parser.add_argument("--seed", type=int, default=3, help="draws the poses (default 3)")
     parser.add_argument("--save", metavar="DIR", help="also write our frames as PNGs into DIR")
+    add_params_argument(parser)
     args = parser.parse_args()
+    detector_params = params_from(args.params, parser)
     if args.poses < 1:
         parser.error("--poses must be at least 1")
     if args.save:
@@ -177,4 +181,4 @@ if __name__ == "__main__":
             Path(args.save).mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             parser.error(f"--save: cannot make the folder {args.save} ({exc.strerror})")
-    main(args.poses, args.seed, args.save)
+    main(args.poses, args.seed, args.save, detector_params)

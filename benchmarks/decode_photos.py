@@ -17,8 +17,10 @@ Prints per set the mean and the slowest frame's ms (best of ``--passes`` runs ea
 to ArUco and AprilTag, detections, and our time per stage and per candidate pass; and for the photographs each frame's
 times, and ours again with settings that trade readings for time: a lookup of
 :data:`SMALL_LOOKUP` order types (the size of AprilTag 36h11's family; fewer templates to read
-by model) and no reading by model (``DetectorParams(model_match=False)``; what it gives up:
-``decode_sweeps.py --without-model``). The time targets of the decoder design (issue 37): mean ≤ 1.5 × ArUco's on the
+by model), no reading by model (``DetectorParams(model_match=False)``; what it gives up:
+``decode_sweeps.py --without-model``), no last-resort candidate passes
+(``DetectorParams(last_resort_passes=False)``; ``decode_sweeps.py --other
+last_resort_passes=false``), and neither. The time targets of the decoder design (issue 37): mean ≤ 1.5 × ArUco's on the
 photographs and no frame there over 3 × ArUco's slowest; ≤ 1.0 × ArUco's and ≤ AprilTag's with a
 tag. Needs ``pip install '.[bench]'`` (scikit-image, pupil-apriltags).
 """
@@ -140,12 +142,15 @@ def stage_means(det: Detector, frames: Sequence[_U8]) -> tuple[str, str]:
 
 def settings_rows(lookup: MemoryLookup, photos: Sequence[_U8], aruco: list[float], passes: int) -> None:
     """Ours on the photographs with a small lookup (the first :data:`SMALL_LOOKUP` k = 8 order
-    types by ID) and without reading by model: mean and slowest ms, each against ArUco's, and
-    the time of each candidate pass (one more run)."""
+    types by ID), without reading by model, without the last-resort candidate passes, and
+    without either: mean and slowest ms, each against ArUco's, and the time of each candidate
+    pass (one more run)."""
     small = MemoryLookup(sorted((e for e in lookup if e.k == 8), key=lambda e: e.lambda_text)[:SMALL_LOOKUP])
     for label, det in (
         (f"a lookup of {len(small)} order types", Detector(small)),
         ("no reading by model", Detector(lookup, DetectorParams(model_match=False))),
+        ("no last-resort passes", Detector(lookup, DetectorParams(last_resort_passes=False))),
+        ("neither", Detector(lookup, DetectorParams(last_resort_passes=False, model_match=False))),
     ):
         det.detect(photos[0])
         times, count = frame_times(functools.partial(_detections, det), photos, passes)

@@ -1,7 +1,7 @@
 """Decode rate against tilt and distance: Order Type Tags beside ArUco 6×6 and AprilTag 3, printed and plotted.
 
-Usage: python benchmarks/decode_sweeps.py [--trials N] [--plot sweeps.png] [--compare | --without-model] [--seed S]
-                                          [--paired]
+Usage: python benchmarks/decode_sweeps.py [--trials N] [--plot sweeps.png] [--seed S] [--paired]
+                                          [--compare | --without-model | --other KEY=VALUE ...]
 A 21 cm data area seen by a 640×480 camera with f = 700 px: a tilt sweep at 1.5 m (0 … 89°) and a
 distance sweep (0.5 … 8 m, tilt 0–30°), each for normal and inverted tags. Each condition renders
 ``N`` scenes (random in-plane rotation, tilt axis, position near the centre, blur σ ≤ 0.8 px,
@@ -15,7 +15,8 @@ wrong (printed; must stay 0). ``--compare`` also runs our decoder without the re
 (``DetectorParams(rectify=False)``) on the same frames: the column ``direct``, its wrong IDs in
 parentheses; ``--without-model`` the same without reading by model
 (``DetectorParams(model_match=False)``, the column ``no model``: what that setting, 2× faster on
-frames of clutter, gives up). For our failures
+frames of clutter, gives up); ``--other KEY=VALUE ...`` the same with any settings
+(``settings.py``; e.g. ``--other last_resort_passes=false``, the column ``other``). For our failures
 the most frequent rejection reason of each row is printed. ``--paired`` renders the same
 scenes (tag, pose, degradations) in both polarities, so the normal/inverted gap of a row measures
 the decoder and not the draw of the poses: with independent draws, one trial of 30 is 3.3 points
@@ -35,6 +36,7 @@ from pathlib import Path
 import numpy as np
 from decode_speed import bundled_tags, drawable  # the benchmark next to this one
 from peers import MARKER_ID, PATCH_TO_DATA_AREA, PEERS, PeerReader, marker_patch, plot_lines
+from settings import describe, params_from
 
 from ottag_db.core.types import Polarity
 from ottag_db.decode import Detector, DetectorParams
@@ -165,8 +167,12 @@ OTHERS = {
 }
 
 
-def main(trials: int, plot: str | None, other: str | None, seed: int, paired: bool = False) -> None:
-    column, params = OTHERS[other] if other else (None, None)
+def main(
+    trials: int, plot: str | None, other: tuple[str, DetectorParams] | None, seed: int, paired: bool = False
+) -> None:
+    column, params = other if other else (None, None)
+    if other:
+        print(f"{column}: ours with {describe(other[1])}")
     sweep = Sweep(params)
     rng = np.random.default_rng(seed)
     pols: tuple[Polarity, Polarity] = ("normal", "inverted")
@@ -217,8 +223,10 @@ if __name__ == "__main__":
     others = ap.add_mutually_exclusive_group()
     others.add_argument("--compare", action="store_true", help="also run the decoder without the rectified retry")
     others.add_argument("--without-model", action="store_true", help="also run the decoder without reading by model")
+    others.add_argument("--other", nargs="+", metavar="KEY=VALUE", help="also run the decoder with these settings")
     ap.add_argument("--seed", type=int, default=2018)
     ap.add_argument("--paired", action="store_true", help="the same scenes in both polarities")
     args = ap.parse_args()
-    other = "compare" if args.compare else "without_model" if args.without_model else None
+    chosen = "compare" if args.compare else "without_model" if args.without_model else None
+    other = ("other", params_from(args.other, ap, "--other")) if args.other else OTHERS[chosen] if chosen else None
     main(args.trials, args.plot, other, args.seed, args.paired)

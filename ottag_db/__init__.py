@@ -60,7 +60,7 @@ _EXPORTS: dict[str, str] = {
     # decode
     "Detection": "ottag_db.decode.types",
     "Detector": "ottag_db.decode.detector",
-    "DetectorParams": "ottag_db.decode.types",
+    "DetectorParams": "ottag_db.decode.params",
     "Rejected": "ottag_db.decode.types",
     "Pose": "ottag_db.decode.pose",
     "estimate_pose": "ottag_db.decode.pose",
@@ -288,8 +288,9 @@ if TYPE_CHECKING:
     from ottag_db.core.placement import tag_placement
     from ottag_db.core.types import MP_THRESHOLDS
     from ottag_db.decode.detector import Detector
+    from ottag_db.decode.params import DetectorParams
     from ottag_db.decode.pose import Pose, estimate_pose
-    from ottag_db.decode.types import Detection, DetectorParams, Rejected
+    from ottag_db.decode.types import Detection, Rejected
     from ottag_db.errors import (
         DatabaseError,
         DecodeError,

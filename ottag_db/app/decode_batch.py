@@ -115,7 +115,9 @@ def decode_options(
     return DecodeOptions(camera=cam, tag_size_mm=size_mm, draw_dir=draw_dir, draw_video=draw_video, every=every)
 
 
-def prepare_decoding(db: Database, dictionary: str | None = None, *, verify: bool = True) -> DecodeSetup:
+def prepare_decoding(
+    db: Database, dictionary: str | None = None, *, verify: bool = True, fast: bool = False
+) -> DecodeSetup:
     """Load the decoder's lookup and the numbers its output reports from the database.
 
     Parameters
@@ -127,19 +129,23 @@ def prepare_decoding(db: Database, dictionary: str | None = None, *, verify: boo
         stored order type.
     verify : bool
         Check each reading geometrically; False decides by order type alone (the paper's rule).
+    fast : bool
+        Skip the last-resort candidate passes (``DetectorParams(last_resort_passes=False)``).
 
     Returns
     -------
     DecodeSetup
         The detector, universal numbers and (with a dictionary) its one-flip neighbours.
     """
-    detector = open_detector(db, dictionary=dictionary, params=DetectorParams(verify=verify))
+    detector = open_detector(
+        db, dictionary=dictionary, params=DetectorParams(verify=verify, last_resort_passes=not fast)
+    )
     numbers = order_type_numbers(db)
     near = neighbour_members(db, dictionary) if dictionary else {}
     return DecodeSetup(detector=detector, numbers=numbers, near=near, dictionary=dictionary)
 
 
-def prepare_file_decoding(path: Path, *, verify: bool = True) -> DecodeSetup:
+def prepare_file_decoding(path: Path, *, verify: bool = True, fast: bool = False) -> DecodeSetup:
     """A detector for the tags of a dictionary file alone (``decode --dictionary-file``), no database.
 
     The file is validated as ``dictionary import`` validates it; every member is verified
@@ -151,6 +157,8 @@ def prepare_file_decoding(path: Path, *, verify: bool = True) -> DecodeSetup:
         A dictionary export (JSON, format ``ottag-dictionary/1``).
     verify : bool
         Check each reading geometrically; False decides by order type alone.
+    fast : bool
+        Skip the last-resort candidate passes (``DetectorParams(last_resort_passes=False)``).
 
     Returns
     -------
@@ -164,7 +172,7 @@ def prepare_file_decoding(path: Path, *, verify: bool = True) -> DecodeSetup:
         The file cannot be read or a tag is bad (the message names it).
     """
     doc = load_dictionary_file(path)
-    detector = open_detector(dictionary_file=doc, params=DetectorParams(verify=verify))
+    detector = open_detector(dictionary_file=doc, params=DetectorParams(verify=verify, last_resort_passes=not fast))
     return DecodeSetup(detector=detector, numbers=doc.universal_numbers(), near={}, dictionary=doc.name)
 
 

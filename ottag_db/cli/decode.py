@@ -108,6 +108,12 @@ def _print_image(path: str, record: dict[str, Any]) -> None:
 )
 @click.option("--tag-size", default=None, help=TAG_SIZE_HELP + "; with --camera gives the pose (in mm).")
 @click.option("--no-verify", is_flag=True, help="Decide by order type alone (the paper's rule), no geometric check.")
+@click.option(
+    "--fast",
+    is_flag=True,
+    help="Skip the last-resort candidate passes: frames without a tag take a third of the time; "
+    "some tags seen from about 82° on or smeared by a long motion are not read (see the decoding guide).",
+)
 @db_options
 @quiet_option
 def decode_cmd(
@@ -120,6 +126,7 @@ def decode_cmd(
     camera: Path | None,
     tag_size: str | None,
     no_verify: bool,
+    fast: bool,
     db_target: str | None,
     quiet: bool,
 ) -> None:
@@ -138,10 +145,10 @@ def decode_cmd(
         raise click.UsageError("--dictionary NAME (in the database) and --dictionary-file FILE exclude each other")
     options = decode_options(camera, tag_size, draw, every=every)
     if dictionary_file is not None:
-        setup = prepare_file_decoding(dictionary_file, verify=not no_verify)
+        setup = prepare_file_decoding(dictionary_file, verify=not no_verify, fast=fast)
     else:
         with open_db(db_target, quiet) as db:
-            setup = prepare_decoding(db, dictionary, verify=not no_verify)
+            setup = prepare_decoding(db, dictionary, verify=not no_verify, fast=fast)
     bar = _FrameBar(quiet)
     failed: list[str] = []
     tally: VideoTally | None = None

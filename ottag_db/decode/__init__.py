@@ -8,13 +8,13 @@ from __future__ import annotations
 
 from ottag_db.decode.detector import DEFAULT_PARAMS, Detector
 from ottag_db.decode.image import to_gray
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.pose import Pose, PoseSolution, estimate_pose, placement_from_detection, tag_object_points
 from ottag_db.decode.types import (
     REJECTION_REASONS,
     STAGES,
     Detection,
     DetectionReport,
-    DetectorParams,
     Rejected,
     RejectReason,
     StageName,

@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from ottag_db.decode.image import DIM_SMOOTHING_PX, frame_departure, threshold_offset
 from ottag_db.decode.outlines import holes_at_frame_edge
-from ottag_db.decode.types import DetectorParams
+from ottag_db.decode.params import DetectorParams
 
 __all__ = [
     "HALF_RES_MIN_SIDE",

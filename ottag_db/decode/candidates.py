@@ -26,10 +26,11 @@ from ottag_db.decode.outlines import (
     lines_outline,
     without_spikes,
 )
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.placement_check import UNIT_SQUARE
 from ottag_db.decode.quads import clockwise, same_quad, squeeze
 from ottag_db.decode.segmentation import MAX_TRIANGLES
-from ottag_db.decode.types import DetectorParams, Quad
+from ottag_db.decode.types import Quad
 
 __all__ = [
     "JOINED_MAX_HOLES",

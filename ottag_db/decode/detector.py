@@ -36,6 +36,7 @@ from ottag_db.decode.identify import Catalogue
 from ottag_db.decode.image import frame_departure, threshold_offset, to_gray
 from ottag_db.decode.model_budget import around_blurred, rank_for_model, ranking_scores
 from ottag_db.decode.model_match import NOT_HELD, confirm_by_model, read_model, wants_model
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import (
     Outlined,
@@ -52,16 +53,7 @@ from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.rectify import read_rectified, wants_rectified
 from ottag_db.decode.splitting import FRAME_SEARCH, SearchBudget
 from ottag_db.decode.templates import RANKING_GRID, template_bank
-from ottag_db.decode.types import (
-    Detection,
-    DetectionReport,
-    DetectorParams,
-    ModelGuess,
-    Quad,
-    Rejected,
-    Rejection,
-    RejectReason,
-)
+from ottag_db.decode.types import Detection, DetectionReport, ModelGuess, Quad, Rejected, Rejection, RejectReason
 from ottag_db.errors import UsageError
 
 __all__ = ["DEFAULT_PARAMS", "Detector"]
@@ -203,11 +195,12 @@ class Detector:
             passes.append("otsu")
         if p.use_adaptive:  # after Otsu's: its outlines, seen first, would stand in for Otsu's
             passes.append("adaptive_dim")
-        if p.use_adaptive and searches_at_half_resolution(gray.shape, p):
+        last_resorts = p.use_adaptive and p.last_resort_passes
+        if last_resorts and searches_at_half_resolution(gray.shape, p):
             passes.append("adaptive_thin")
-        if p.use_adaptive and "normal" in p.polarities:
+        if last_resorts and "normal" in p.polarities:
             passes.append("bright_holes")
-        if p.use_adaptive:  # last: a long motion's smeared triangles notch the outlines above
+        if last_resorts:  # last: a long motion's smeared triangles notch the outlines above
             passes.append("local_range")
         seen: list[Quad] = []
         blurred_seen: list[Quad] = []  # the candidates read by model as blurred tags

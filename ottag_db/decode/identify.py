@@ -13,6 +13,7 @@ from ottag_db.core.layout import LAYOUT_MAX_K
 from ottag_db.core.lookup import LookupEntry, TagLookup
 from ottag_db.core.single_set import OrientationTable, read_set
 from ottag_db.core.types import Polarity
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import shows_print, thinnest_side
 from ottag_db.decode.soft import (
@@ -25,7 +26,7 @@ from ottag_db.decode.soft import (
     layout_matches,
     observed_triangles,
 )
-from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
+from ottag_db.decode.types import Detection, Quad, Rejection
 from ottag_db.decode.verify import Assessment, SideLines, assess, verify
 
 __all__ = ["PRINT_MIN_SEEN_CORNERS", "Catalogue", "for_polarity", "identify"]

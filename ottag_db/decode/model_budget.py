@@ -25,10 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.model_align import INVERTED_QUIET, View
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography, square_homography
 from ottag_db.decode.quads import centres_inside
 from ottag_db.decode.templates import MODEL_GRID, RANKING_GRID, TemplateBank, normalized_rows
-from ottag_db.decode.types import DetectorParams, Quad
+from ottag_db.decode.types import Quad
 
 __all__ = [
     "QUIET_OUTLINE_AREA",

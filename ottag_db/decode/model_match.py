@@ -64,12 +64,13 @@ from ottag_db.decode.camera_blur import FrameCamera, measured_blurs, sensor_nois
 from ottag_db.decode.identify import for_polarity
 from ottag_db.decode.model_align import Aligned, View, align, fit_blur, judge, neighbourhood, outline_views
 from ottag_db.decode.model_budget import coarse_samples, contour_views, view_samples
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.placement_check import UNIT_SQUARE, apply_homography
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import squeeze
 from ottag_db.decode.reading import points_fit
 from ottag_db.decode.templates import TemplateBank, placement
-from ottag_db.decode.types import Detection, DetectorParams, ModelGuess, Quad, Rejection
+from ottag_db.decode.types import Detection, ModelGuess, Quad, Rejection
 
 __all__ = ["MODEL_CANDIDATES", "MODEL_CHALLENGERS", "NOT_HELD", "confirm_by_model", "read_model", "wants_model"]
 

@@ -11,7 +11,8 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ottag_db.decode.types import Detection, DetectorParams, Quad
+from ottag_db.decode.params import DetectorParams
+from ottag_db.decode.types import Detection, Quad
 
 __all__ = [
     "INFERRED_MOVED",

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from ottag_db.decode.cluster import cluster_hypotheses
 from ottag_db.decode.identify import Catalogue, identify
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import squeeze
 from ottag_db.decode.refine import refine
@@ -25,14 +26,7 @@ from ottag_db.decode.segmentation import MAX_TRIANGLES, NO_DECOMPOSITION, decomp
 from ottag_db.decode.splitting import FitMemo, SearchBudget
 from ottag_db.decode.tips import apices, with_apices
 from ottag_db.decode.triangles import bad_triangles
-from ottag_db.decode.types import (
-    Decomposition,
-    Detection,
-    DetectorParams,
-    PointHypothesis,
-    Quad,
-    Rejection,
-)
+from ottag_db.decode.types import Decomposition, Detection, PointHypothesis, Quad, Rejection
 
 __all__ = ["FrameMap", "points_fit", "read_area", "scaled_params"]
 

@@ -31,11 +31,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.identify import Catalogue
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.profile import StageClock
 from ottag_db.decode.quads import squeeze
 from ottag_db.decode.reading import read_area, scaled_params
 from ottag_db.decode.splitting import RECTIFIED_SEARCH
-from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
+from ottag_db.decode.types import Detection, Quad, Rejection
 
 __all__ = [
     "RECTIFY_MAX_PX",

@@ -12,10 +12,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.decode.image import otsu
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.placement_check import square_homography
 from ottag_db.decode.splitting import FitBudget, FitMemo, SearchBudget, component_decompositions
 from ottag_db.decode.triangles import triangle_fit
-from ottag_db.decode.types import DataArea, Decomposition, DetectorParams, Quad, Rejection
+from ottag_db.decode.types import DataArea, Decomposition, Quad, Rejection
 
 __all__ = [
     "MAX_DECOMPOSITIONS",

@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ottag_db.core.lookup import LookupEntry
+from ottag_db.decode.params import DetectorParams
 from ottag_db.decode.placement_check import (
     PLACEMENT_BOUND_FACTOR,
     PLACEMENT_MAX_UNITS,
@@ -19,7 +20,7 @@ from ottag_db.decode.placement_check import (
     printed_corners,
 )
 from ottag_db.decode.quads import shows_print
-from ottag_db.decode.types import Detection, DetectorParams, Quad, Rejection
+from ottag_db.decode.types import Detection, Quad, Rejection
 
 __all__ = [
     "Assessment",

@@ -10,7 +10,7 @@ import pytest
 
 from ottag_db.decode.candidates import find_quads
 from ottag_db.decode.image import frame_has_contrast, otsu, to_gray
-from ottag_db.decode.types import DetectorParams
+from ottag_db.decode.params import DetectorParams
 from ottag_db.errors import DecodeError
 from tests.support import synthetic_tags as syn
 
