@@ -17,10 +17,11 @@ our detections (must be 0; ArUco's own markers are its detections) and our time 
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import cv2
@@ -32,6 +33,16 @@ from ottag_db.printing import clutter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decode_speed import bundled_tags, stage_split  # the benchmark next door
+
+
+def _ours_found(det: Detector, imgs: Sequence[NDArray[np.uint8]]) -> int:
+    """Our detections in ``imgs``."""
+    return sum(len(det.detect(im)) for im in imgs)
+
+
+def _aruco_found(aruco: cv2.aruco.ArucoDetector, imgs: Sequence[NDArray[np.uint8]]) -> int:
+    """The frames of ``imgs`` where ArUco finds a marker."""
+    return sum(aruco.detectMarkers(im)[1] is not None for im in imgs)
 
 
 def _best_ms(run: Callable[[], int], frames: int, passes: int = 2) -> tuple[float, int]:
@@ -62,8 +73,8 @@ def main(frames: int) -> None:
     for name, imgs in sets:
         det.detect(imgs[0])
         aruco.detectMarkers(imgs[0])
-        ms_o, found = _best_ms(lambda imgs=imgs: sum(len(det.detect(im)) for im in imgs), len(imgs))
-        ms_a, _ = _best_ms(lambda imgs=imgs: sum(aruco.detectMarkers(im)[1] is not None for im in imgs), len(imgs))
+        ms_o, found = _best_ms(functools.partial(_ours_found, det, imgs), len(imgs))
+        ms_a, _ = _best_ms(functools.partial(_aruco_found, aruco, imgs), len(imgs))
         spent = ", ".join(f"{s} {ms:.1f}" for s, ms in stage_split(det, imgs).items() if ms >= 0.05)
         print(f"{name:16s} {len(imgs):6d} {ms_o:8.2f} {ms_a:8.2f} {ms_o / ms_a:6.1f}  {found}; {spent}")
 

@@ -86,9 +86,10 @@ class Degradation:
         """``image`` degraded; motion along ``angle``°, the noise drawn from ``noise_seed``."""
         out = image.astype(np.float64)
         if self.defocus > 0:
-            out = cv2.GaussianBlur(out, (0, 0), self.defocus, borderType=cv2.BORDER_REFLECT)
+            out = np.asarray(cv2.GaussianBlur(out, (0, 0), self.defocus, borderType=cv2.BORDER_REFLECT), np.float64)
         if self.motion > 0:
-            out = cv2.filter2D(out, -1, motion_kernel(self.motion, angle), borderType=cv2.BORDER_REFLECT)
+            kernel = motion_kernel(self.motion, angle)
+            out = np.asarray(cv2.filter2D(out, -1, kernel, borderType=cv2.BORDER_REFLECT), np.float64)
         if self.low_light:
             mean = out.mean()
             out = mean + 0.25 * (out - mean) + np.random.default_rng(noise_seed).normal(0, 6.0, out.shape)
@@ -96,7 +97,9 @@ class Degradation:
         if self.jpeg is not None:
             ok, buf = cv2.imencode(".jpg", grey, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg])
             assert ok
-            grey = cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE)
+            decoded = cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE)
+            assert decoded is not None
+            grey = np.asarray(decoded, np.uint8)
         return np.asarray(grey, np.uint8)
 
 
@@ -131,7 +134,7 @@ def motion_kernel(length: float, angle: float) -> NDArray[np.float64]:
         kernel[y0, x0 + 1] += fx * (1 - fy)
         kernel[y0 + 1, x0] += (1 - fx) * fy
         kernel[y0 + 1, x0 + 1] += fx * fy
-    return kernel / kernel.sum()
+    return np.asarray(kernel / kernel.sum(), np.float64)
 
 
 class Parser(argparse.ArgumentParser):

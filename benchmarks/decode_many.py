@@ -23,6 +23,7 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -163,7 +164,12 @@ def make_frames(
             )
             for i, m in enumerate(order.tolist())
         ]  # fmt: skip
-        cond = {"blur": rng.uniform(0, 1), "noise": rng.uniform(0, 4), "gradient": rng.uniform(0, 0.4), "jpeg": 80}
+        cond: dict[str, Any] = {
+            "blur": rng.uniform(0, 1),
+            "noise": rng.uniform(0, 4),
+            "gradient": rng.uniform(0, 0.4),
+            "jpeg": 80,
+        }
         seed_f = int(rng.integers(1 << 30))
         ours.append(scenes.render_scene(SHAPE, specs, np.random.default_rng(seed_f), **cond))
         patch_h = board @ np.diag([bw, bh, 1.0])

@@ -117,7 +117,7 @@ def main(poses: int, seed: int, save: str | None = None, params: DetectorParams 
     print(f"{'case':<16} {'polarity':<9} {'ours':>10} {'corner err':>11} {'ArUco':>8} {'AprilTag':>9}")
     for case in CASES:
         for polarity in ("normal", "inverted"):
-            pol: Polarity = polarity  # type: ignore[assignment]
+            pol: Polarity = polarity
             ours = wrong = 0
             errors: list[float] = []
             peers_read = dict.fromkeys(PEERS, 0)

@@ -34,6 +34,7 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -96,7 +97,7 @@ def tag_on_wall(
         width = rng.uniform(narrowest, 180)
         centre = (float(rng.uniform(200, 440)), float(rng.uniform(160, 320)))
         spec = scenes.posed_spec(tag, rng, width, rng.uniform(0, 50), center_px=centre)
-        cond = {"blur": rng.uniform(0.3, 1.0), "noise": rng.uniform(1, 4), "jpeg": 80}
+        cond: dict[str, Any] = {"blur": rng.uniform(0.3, 1.0), "noise": rng.uniform(1, 4), "jpeg": 80}
         frame_seed = int(rng.integers(1 << 30))
         wall_patch = (wall, _FRAME)
         ours.append(

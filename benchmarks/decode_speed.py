@@ -22,6 +22,7 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -89,7 +90,12 @@ def make_scenes(frames: int) -> tuple[MemoryLookup, list[np.ndarray], dict[str, 
             continue
         width = rng.uniform(max(90.0, w_min), 200)
         spec = scenes.posed_spec(tag, rng, width, rng.uniform(0, 45))
-        cond = {"blur": rng.uniform(0, 1), "noise": rng.uniform(0, 4), "gradient": rng.uniform(0, 0.4), "jpeg": 80}
+        cond: dict[str, Any] = {
+            "blur": rng.uniform(0, 1),
+            "noise": rng.uniform(0, 4),
+            "gradient": rng.uniform(0, 0.4),
+            "jpeg": 80,
+        }
         seed = int(rng.integers(1 << 30))
         ours_imgs.append(scenes.render_scene((480, 640), [spec], np.random.default_rng(seed), **cond).image)
         hom_m = spec.homography @ PATCH_TO_DATA_AREA

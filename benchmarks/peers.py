@@ -14,7 +14,7 @@ is given to it as it is, and it does not read it. ``pupil_apriltags`` and ``matp
 from __future__ import annotations
 
 import weakref
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -100,7 +100,7 @@ class PeerReader:
 
 def plot_lines(
     path: str | Path,
-    panels: Sequence[tuple[str, str, str, Sequence[float], dict[str, Sequence[float]]]],
+    panels: Sequence[tuple[str, str, str, Sequence[float], Mapping[str, Sequence[float]]]],
     *,
     width: float = 5.0,
 ) -> None:

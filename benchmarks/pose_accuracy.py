@@ -37,6 +37,7 @@ import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -167,7 +168,7 @@ def render(tex: Texture, r_mat: np.ndarray, t: np.ndarray, seed: int) -> np.ndar
     )
     small = cv2.resize(big, (W, H), interpolation=cv2.INTER_AREA).astype(np.float64)
     grey = INK + (PAPER - INK) * small / 255.0
-    grey = cv2.GaussianBlur(grey, (0, 0), BLUR)
+    grey = np.asarray(cv2.GaussianBlur(grey, (0, 0), BLUR), np.float64)
     grey += np.random.default_rng(seed).normal(0, NOISE, grey.shape)
     return np.clip(np.rint(grey), 0, 255).astype(np.uint8)
 
@@ -254,7 +255,8 @@ def main() -> None:
     reader = PeerReader()
     reader.aruco.setDetectorParameters(_subpixel())
     peer_textures = {peer: marker_texture(peer) for peer in PEERS}
-    rows = []
+    # (distance, tilt, roll, then per reader its (normal error °, distance error %) or None)
+    rows: list[tuple[Any, ...]] = []
     plane_bias: list[float] = []
     variants: dict[str, list[tuple[float, float]]] = {}
     all_poses = poses()
@@ -299,8 +301,11 @@ def main() -> None:
             print(f"{dist:5.2f} {tilt:5.0f} {roll:5.0f} | {os_} | {as_}")
         print(f"\n{'our variants':30} {'normal mean °':>14} {'max °':>7} {'dist mean %':>12} {'max %':>7}")
         for name, vals in variants.items():
-            a = np.array(vals)
-            print(f"{name:30} {a[:, 0].mean():14.3f} {a[:, 0].max():7.3f} {a[:, 1].mean():12.3f} {a[:, 1].max():7.3f}")
+            arr = np.array(vals)
+            print(
+                f"{name:30} {arr[:, 0].mean():14.3f} {arr[:, 0].max():7.3f}"
+                f" {arr[:, 1].mean():12.3f} {arr[:, 1].max():7.3f}"
+            )
         if plane_bias:
             print(
                 f"tag-plane points vs the printed placement: mean {1000 * np.mean(plane_bias):.4f} mm, "

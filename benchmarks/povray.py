@@ -276,7 +276,7 @@ def measure_corners(image: _U8, approx: _F64, reach: float = 5.0, smooth: float 
     """
     grey = image.astype(np.float32)
     if smooth > 0:
-        grey = cv2.GaussianBlur(grey, (0, 0), smooth)
+        grey = np.asarray(cv2.GaussianBlur(grey, (0, 0), smooth), np.float32)
     lines = []
     for i in range(4):
         a, b = approx[i], approx[(i + 1) % 4]

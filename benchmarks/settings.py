@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from collections.abc import Sequence
+from typing import Any
 
 from ottag_db.decode import DetectorParams
 from ottag_db.errors import UsageError
@@ -44,7 +45,7 @@ def params_from(pairs: Sequence[str], parser: argparse.ArgumentParser, option: s
     DetectorParams
     """
     fields = {f.name: f for f in dataclasses.fields(DetectorParams)}
-    changes: dict[str, object] = {}
+    changes: dict[str, Any] = {}
     for pair in pairs:
         key, sep, text = pair.partition("=")
         if not sep or key not in fields:

@@ -81,7 +81,9 @@ def build(folder: Path) -> dict[str, tuple[MemoryLookup, list[tuple[scenes.Drawa
             import_point_file(db, path, n=k, with_mirrors=True)
         create_dictionary(db, "d3", DictionaryOptions(ks=(8,), min_flip_distance=3, polarity="both"))
         complete = load_lookup(db, ks=KS)
-        tags = [(_drawable(r), ("normal", "inverted")) for r in select_tags(db, ks=KS)]
+        tags: list[tuple[scenes.DrawableTag, tuple[str, ...]]] = [
+            (_drawable(r), ("normal", "inverted")) for r in select_tags(db, ks=KS)
+        ]
         d3 = dictionary_lookup(db, "d3")
         info, records = dictionary_tag_records(db, "d3")
     finally:
