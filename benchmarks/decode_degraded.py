@@ -236,10 +236,10 @@ def read_row(
     return reads, wrong
 
 
-def main(args: argparse.Namespace, rows: Sequence[Degradation]) -> None:
+def main(args: argparse.Namespace, rows: Sequence[Degradation], params: DetectorParams = DEFAULT_PARAMS) -> None:
     quiet = args.quiet
     with tempfile.TemporaryDirectory() as tmp:
-        det, tag_id, ours = our_textures(Path(tmp), args.tag, args.detector_params)
+        det, tag_id, ours = our_textures(Path(tmp), args.tag, params)
         cache = args.cache if args.cache is not None else Path(tmp) / "frames"
         textures = {("ours", pol): ours[pol] for pol in POLARITIES}
         for peer in PEERS:
@@ -254,7 +254,7 @@ def main(args: argparse.Namespace, rows: Sequence[Degradation]) -> None:
             f"{args.poses} poses (seed {args.seed}): {SQUARE_M * 100:.0f} cm black square at {DISTANCE_M} m "
             f"({SQUARE_M * FOCAL / DISTANCE_M:.0f} px frontal), tilt −{TILT:g}…+{TILT:g}°, roll {ROLL:g}°; "
             f"POV-Ray 640×480, f = {FOCAL:g} px; "
-            f"our tag {tag_id}; our settings: {describe(args.detector_params)}"
+            f"our tag {tag_id}; our settings: {describe(params)}"
         )
         print(
             f"frames: {len(textures) * args.poses} ({renderer.rendered} rendered, the rest from the cache) "
@@ -325,7 +325,7 @@ if __name__ == "__main__":
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
     add_params_argument(parser)
     args = parser.parse_args()
-    args.detector_params = params_from(args.params, parser)
+    detector_params = params_from(args.params, parser)
     if args.poses < 1:
         parser.error("--poses must be at least 1")
     rows = list(ROWS)
@@ -336,4 +336,4 @@ if __name__ == "__main__":
         rows = [r for r in ROWS if any(r.name.lower().startswith(n.lower()) for n in args.levels)]
     if args.plot is not None and not args.plot.parent.is_dir():
         parser.error(f"--plot: no folder {args.plot.parent}")
-    main(args, rows)
+    main(args, rows, detector_params)

@@ -57,7 +57,7 @@ class Row:
 
     trials: int = 0
     ours: int = 0
-    other: int = 0  # the second decoder's reads (--compare, --without-model)
+    other: int = 0  # the second decoder's reads (--compare, --without-model, --other)
     peers: Counter[str] = field(default_factory=Counter)
     wrong: int = 0
     wrong_other: int = 0
@@ -171,8 +171,8 @@ def main(
     trials: int, plot: str | None, other: tuple[str, DetectorParams] | None, seed: int, paired: bool = False
 ) -> None:
     column, params = other if other else (None, None)
-    if other:
-        print(f"{column}: ours with {describe(other[1])}")
+    if params is not None:
+        print(f"{column}: ours with {describe(params)}")
     sweep = Sweep(params)
     rng = np.random.default_rng(seed)
     pols: tuple[Polarity, Polarity] = ("normal", "inverted")
