@@ -7,7 +7,7 @@ numpy or plain-Python formulation does, operation for operation.
 
 from setuptools import Extension, setup
 
-KERNELS = ("blur", "lines", "triangles")
+KERNELS = ("blur", "cluster", "histogram", "lines", "refine", "triangles")
 
 setup(
     ext_modules=[

@@ -20,9 +20,11 @@ times, and ours again with settings that trade readings for time: a lookup of
 by model), no reading by model (``DetectorParams(model_match=False)``; what it gives up:
 ``decode_sweeps.py --without-model``), no last-resort candidate passes
 (``DetectorParams(last_resort_passes=False)``; ``decode_sweeps.py --other
-last_resort_passes=false``), and neither. The time targets of the decoder design (issue 37): mean ≤ 1.5 × ArUco's on the
-photographs and no frame there over 3 × ArUco's slowest; ≤ 1.0 × ArUco's and ≤ AprilTag's with a
-tag. Needs ``pip install '.[bench]'`` (scikit-image, pupil-apriltags).
+last_resort_passes=false``), and neither; and, for the default and without the last-resort
+passes, what the passes' thresholds and contour traces alone cost (OpenCV's work, before any
+outline or reading: a floor while those passes stay). The time targets of the decoder design
+(issue 37): mean ≤ 1.5 × ArUco's on the photographs and no frame there over 3 × ArUco's slowest;
+≤ 1.0 × ArUco's and ≤ AprilTag's with a tag. Needs ``pip install '.[bench]'`` (scikit-image, pupil-apriltags).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, cast
 
 import cv2
 import numpy as np
@@ -42,6 +44,7 @@ from numpy.typing import NDArray
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.decode import STAGES, Detector, DetectorParams
+from ottag_db.decode.binarize import Binarization, binarize
 from ottag_db.printing import scenes
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -56,6 +59,7 @@ PHOTOS = (
 )  # fmt: skip
 
 _U8 = NDArray[np.uint8]
+_Frame = TypeVar("_Frame")  # what frame_times hands each reading: a frame, or its index
 #: Order types of the small lookup of the settings rows (AprilTag 36h11 has 587 codes).
 SMALL_LOOKUP = 587
 #: The whole frame as a patch for ``render_scene(extra=...)``: unit square → 640×480 pixels.
@@ -111,7 +115,7 @@ def tag_on_wall(
     return ours, theirs
 
 
-def frame_times(read: Callable[[_U8], int], frames: Sequence[_U8], passes: int) -> tuple[list[float], int]:
+def frame_times(read: Callable[[_Frame], int], frames: Sequence[_Frame], passes: int) -> tuple[list[float], int]:
     """Each frame's best ms over ``passes`` runs, and what the last run counted."""
     best = [float("inf")] * len(frames)
     count = 0
@@ -160,6 +164,29 @@ def settings_rows(lookup: MemoryLookup, photos: Sequence[_U8], aruco: list[float
             f" slowest {max(times):6.2f} ms ({max(times) / max(aruco):.1f}× ArUco's slowest), detections: {count}"
         )
         print(f"    its candidate passes, ms/frame: {stage_means(det, photos)[1]}")
+        if label == "no last-resort passes":
+            opencv_floor(det, photos, aruco, passes)
+
+
+def opencv_floor(det: Detector, photos: Sequence[_U8], aruco: list[float], passes: int) -> None:
+    """What the candidate passes' OpenCV work alone costs on the photographs — each pass's
+    threshold and contour trace (:func:`~ottag_db.decode.binarize.binarize`), no outline and no
+    reading — for the passes ``det`` runs on each frame, against ArUco's whole detection: a floor
+    that no faster outlining or reading lowers while the passes stay."""
+    kinds = [tuple(name for name, _ in det.detect_with_report(frame).passes) for frame in photos]
+    params = det.params
+
+    def trace(index: int) -> int:
+        for kind in kinds[index]:
+            binarize(photos[index], cast(Binarization, kind), params)
+        return 0
+
+    times, _ = frame_times(trace, range(len(photos)), passes)
+    print(
+        f"    their thresholds and contour traces alone (OpenCV, {len(kinds[0])} passes on the first frame):"
+        f" mean {np.mean(times):6.2f} ms ({np.mean(times) / np.mean(aruco):.1f}× ArUco's whole detection),"
+        f" slowest {max(times):6.2f} ms ({max(times) / max(aruco):.1f}× ArUco's slowest)"
+    )
 
 
 def _detections(det: Detector, frame: _U8) -> int:
@@ -204,6 +231,7 @@ def main(tags_count: int, seed: int, passes: int) -> None:
     stages, per_pass = stage_means(det, photos)
     print(f"  our stages, ms/frame: {stages}")
     print(f"  our candidate passes, ms/frame (share of frames that ran it): {per_pass}")
+    opencv_floor(det, photos, t_aruco, passes)
     print("  per frame, ms (ours / ArUco / AprilTag):")
     for name, a, b, c in zip(names, t_ours, t_aruco, t_april, strict=True):
         print(f"    {name:<22} {a:7.2f} {b:6.2f} {c:6.2f}")

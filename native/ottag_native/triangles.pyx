@@ -6,7 +6,8 @@ and list comprehensions over the hull; this computes the same values in the same
 (double precision, no fused multiply-adds: built with ``-ffp-contract=off``).
 """
 
-from libc.math cimport atan2, cos, fabs, hypot, sin
+from cython.view cimport array as cvarray
+from libc.math cimport INFINITY as INF, atan2, cos, fabs, hypot, sin
 
 
 cdef double _far(const double[:, ::1] flat, const int[::1] hull, int p0, int p1, int k) noexcept nogil:
@@ -167,3 +168,90 @@ def fit_triangle(const double[:, ::1] flat, const int[::1] hull, double contour_
     if far > max(2.0, 0.05 * n):
         return None
     return idx[0], idx[1], idx[2], trims[0], trims[1], trims[2]
+
+
+def triangle_faults(const double[:, ::1] verts, const double[:, ::1] quad, double side):
+    """Why fitted triangles cannot be a tag's (:func:`ottag_db.decode.triangles.bad_triangles`).
+
+    Parameters
+    ----------
+    verts : memoryview of float64
+        ``(3T, 2)`` triangle vertices, three per triangle (side j from vertex j to j + 1).
+    quad : memoryview of float64
+        ``(4, 2)`` data-area corners (convex, either orientation).
+    side : float
+        Data-area side (px): scales the tolerances.
+
+    Returns
+    -------
+    int
+        0: none; 1: a vertex is not finite; 2: a vertex lies outside the data area (beyond
+        ``1 + 1 %`` of the side); 3: two triangles share part of a side (both ends of one side
+        within ``max(0.8, 0.8 %`` of the side) of another's line, their projections overlapping
+        over a third of the shorter).
+    """
+    cdef Py_ssize_t s = verts.shape[0], i, j, q, base
+    cdef double slack = 1.0 + 0.01 * side, near = 0.008 * side
+    cdef double dx, dy, cross, norm, ln_i, ln_j, shorter
+    cdef double rax, ray, rbx, rby, off_a, off_b, pa, pb, hi, lo, overlap
+    cdef bint inner_left = True, inner_right = True
+    cdef double[::1] ux, uy, ln, bx, by
+    if s % 3:
+        raise ValueError(f"triangles of 3 vertices, not {s} vertices")
+    for i in range(s):
+        if not (fabs(verts[i, 0]) < INF and fabs(verts[i, 1]) < INF):
+            return 1
+    for i in range(s):  # on the inner side of every quad side (either orientation)
+        for q in range(4):
+            dx = quad[(q + 1) % 4, 0] - quad[q, 0]
+            dy = quad[(q + 1) % 4, 1] - quad[q, 1]
+            cross = dx * (verts[i, 1] - quad[q, 1]) - dy * (verts[i, 0] - quad[q, 0])
+            cross = cross / hypot(dx, dy)
+            if not cross >= -slack:
+                inner_left = False
+            if not cross <= slack:
+                inner_right = False
+    if not (inner_left or inner_right):
+        return 2
+    if s < 6:
+        return 0
+    if near < 0.8:
+        near = 0.8
+    ux, uy, ln, bx, by = (cvarray((s,), sizeof(double), "d") for _ in range(5))
+    for i in range(s):
+        base = i - i % 3
+        bx[i] = verts[base + (i % 3 + 1) % 3, 0]
+        by[i] = verts[base + (i % 3 + 1) % 3, 1]
+        dx = bx[i] - verts[i, 0]
+        dy = by[i] - verts[i, 1]
+        ln[i] = hypot(dx, dy)
+        if not ln[i] >= 1e-9:
+            ln[i] = 1e-9
+        ux[i] = dx / ln[i]
+        uy[i] = dy / ln[i]
+    for i in range(s):
+        for j in range(s):
+            if i // 3 == j // 3:
+                continue
+            rax = verts[j, 0] - verts[i, 0]
+            ray = verts[j, 1] - verts[i, 1]
+            rbx = bx[j] - verts[i, 0]
+            rby = by[j] - verts[i, 1]
+            off_a = fabs(rax * -uy[i] + ray * ux[i])
+            off_b = fabs(rbx * -uy[i] + rby * ux[i])
+            if not (off_a < near and off_b < near):
+                continue
+            pa = rax * ux[i] + ray * uy[i]
+            pb = rbx * ux[i] + rby * uy[i]
+            hi = pa if pa >= pb else pb
+            if hi > ln[i]:
+                hi = ln[i]
+            lo = pa if pa <= pb else pb
+            if lo < 0.0:
+                lo = 0.0
+            overlap = hi - lo
+            ln_j = ln[j]
+            shorter = ln[i] if ln[i] <= ln_j else ln_j
+            if overlap > shorter / 3:
+                return 3
+    return 0

@@ -8,6 +8,7 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from ottag_native.histogram import otsu_split
 
 from ottag_db.errors import DecodeError
 
@@ -112,9 +113,6 @@ class OtsuSplit:
         return self.bright - self.dark
 
 
-_LEVELS = np.arange(256, dtype=np.float64)
-
-
 def otsu(hist: NDArray[Any]) -> OtsuSplit | None:
     """Otsu threshold of a 256-bin histogram and the means of its two classes.
 
@@ -128,24 +126,14 @@ def otsu(hist: NDArray[Any]) -> OtsuSplit | None:
     OtsuSplit or None
         None when the histogram holds fewer than 16 pixels or one class is empty.
     """
-    w0 = np.cumsum(hist, dtype=np.float64)
-    total = float(w0[-1])
-    if total < 16:
+    # compiled (ottag_native.histogram), as numpy computed it: the running counts w0 and sums
+    # s0 of the grey levels; each split's between-class variance w0·w1·(m0 − m1)² =
+    # (total·s0 − s_all·w0)² / (w0·w1), an empty class scoring 0 (below every split with two
+    # classes, whose means then differ); the first split of the largest
+    out = np.empty(4)
+    if not otsu_split(np.ascontiguousarray(hist, dtype=np.float64).ravel(), out):
         return None
-    s0 = np.cumsum(hist * _LEVELS)
-    s_all = float(s0[-1])
-    # between-class variance w0·w1·(m0 − m1)² = (total·s0 − s_all·w0)² / (w0·w1)
-    num = total * s0 - s_all * w0
-    den = w0 * (total - w0)
-    # an empty class (den = 0) scores 0: below every split with two classes, whose classes
-    # then have different means (num ≠ 0); with none, the split is refused below either way
-    between = num * num / np.where(den > 0, den, np.inf)
-    t = int(between.argmax())
-    w0t = float(w0[t])
-    if w0t <= 0 or total - w0t <= 0:
-        return None
-    s0t = float(s0[t])
-    return OtsuSplit(t, s0t / w0t, (s_all - s0t) / (total - w0t))
+    return OtsuSplit(int(out[0]), float(out[1]), float(out[2]))
 
 
 def frame_departure(gray: NDArray[np.uint8]) -> float:

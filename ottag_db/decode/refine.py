@@ -5,6 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from ottag_native.refine import chain_moments, crossing_moments, inward_sides, level_crossings, sample_grid
 
 from ottag_db.decode.types import Decomposition, TriangleLines
 
@@ -103,19 +104,12 @@ def fit_chains(chains: list[_F64]) -> tuple[_F64, _F64]:
     tuple of numpy.ndarray
         Unit normals ``(S, 2)`` and offsets ``(S,)`` with n·x = c.
     """
-    lens = np.array([len(c) for c in chains])
-    allp = np.concatenate(chains)
-    starts = np.concatenate([[0], np.cumsum(lens)[:-1]])
-    sx = np.add.reduceat(allp[:, 0], starts)
-    sy = np.add.reduceat(allp[:, 1], starts)
-    mx, my = sx / lens, sy / lens
-    rep = np.repeat(np.arange(len(chains)), lens)
-    dx = allp[:, 0] - mx[rep]
-    dy = allp[:, 1] - my[rep]
-    return lines_from_moments(
-        mx, my, np.add.reduceat(dx * dx, starts), np.add.reduceat(dx * dy, starts),
-        np.add.reduceat(dy * dy, starts),
-    )  # fmt: skip
+    # compiled (ottag_native.refine), as numpy computed it: each chain's mean and central
+    # second moments, summed as np.add.reduceat sums a chain of the chains stacked
+    s = len(chains)
+    mx, my, sxx, sxy, syy = (np.empty(s) for _ in range(5))
+    chain_moments([np.asarray(c, dtype=np.float64) for c in chains], mx, my, sxx, sxy, syy)
+    return lines_from_moments(mx, my, sxx, sxy, syy)
 
 
 def lines_from_moments(mx: _F64, my: _F64, sxx: _F64, sxy: _F64, syy: _F64) -> tuple[_F64, _F64]:
@@ -206,6 +200,7 @@ def triangle_vertices(normal: _F64, offset: _F64) -> _F64:
 _REFINE_FR = np.linspace(0.08, 0.92, 16)
 _REFINE_OFFS = np.linspace(-3.0, 3.0, 13)
 _REFINE_MID = np.abs(0.5 * (_REFINE_OFFS[1:] + _REFINE_OFFS[:-1]))
+_NONE_INWARD = np.empty(0, dtype=np.uint8)  # (no data-area sides)
 
 #: A data-area side sample within this distance (px) of a triangle side is suspect: the
 #: crossing search reaches 3 px either side of the rough line, which can itself lie a pixel or
@@ -282,67 +277,51 @@ def refine_lines(
         a = np.where(finite[:, None], a, 0.0)
         b = np.where(finite[:, None], b, 0.0)
     sd = b - a
-    # sample positions along each side (the vertices lie on their lines: no projection needed)
-    # (S, M) per coordinate: numpy broadcasts over a last axis of length 2 three times slower
-    base = [a[:, c, None] + _REFINE_FR[None, :] * sd[:, c, None] for c in (0, 1)]
-    # distance of every sample (of the data-area sides too) to every triangle side segment
-    # other than its own, by coordinate
-    # (plain broadcasts: einsum's set-up costs more than these few thousand products)
-    bx, by = base[0][:, :, None], base[1][:, :, None]  # (S, M, 1)
-    ax, ay = a[:st, 0], a[:st, 1]
-    dx, dy = sd[:st, 0], sd[:st, 1]
-    ln2 = np.maximum(dx * dx + dy * dy, 1e-12)
-    rx = bx - ax  # (S, M, St)
-    ry = by - ay
-    u = (rx * dx + ry * dy) / ln2
-    np.clip(u, 0.0, 1.0, out=u)
-    rx -= u * dx
-    ry -= u * dy
-    gap = rx * rx + ry * ry
-    gap[np.arange(st), :, np.arange(st)] = np.inf
-    width = np.sqrt(gap.min(axis=2, initial=np.inf))  # (S, M)
-    m_fr = len(_REFINE_FR)
-    wide = np.ones((s, m_fr), dtype=bool)
-    wide[:st] = width[:st] >= np.minimum(3.0, 0.6 * width[:st].max(axis=1, initial=0.0))[:, None]
-    offs = _REFINE_OFFS
-    n_o = len(offs)
-    # sample grid (S, M, O, 2), built in float32 for remap, one coordinate at a time
+    m_fr, n_o = len(_REFINE_FR), len(_REFINE_OFFS)
+    # compiled (ottag_native.refine), as numpy computed it: the samples on the middle of each
+    # side, each sample's distance to the nearest other triangle side (a triangle sample counts
+    # only where the shape is wide enough), and the grid across the sides for remap (float32)
+    base_x, base_y, width = (np.empty((s, m_fr)) for _ in range(3))
+    wide = np.empty((s, m_fr), dtype=np.uint8)
     samp32 = np.empty((s, m_fr, n_o, 2), dtype=np.float32)
-    for c in (0, 1):
-        shift = offs[None, :] * normal[:, c, None]  # (S, O)
-        np.add(base[c][:, :, None], shift[:, None, :], out=samp32[..., c], casting="same_kind")
+    normal = np.ascontiguousarray(normal, dtype=np.float64)
+    a, sd = np.ascontiguousarray(a), np.ascontiguousarray(sd)
+    sample_grid(a, sd, normal, st, _REFINE_FR, _REFINE_OFFS, base_x, base_y, width, wide, samp32)
     # One row of samples (remap takes under 32,767 per row): OpenCV splits a remap by rows
     # among its threads, and waking them for a few thousand samples cost more than the
     # sampling. With 2 threads 70 µs per frame as (S·M, O) rows against 20 µs as one row
     # (benchmarks/decode_speed.py, idle machine; up to 0.8 ms under load).
     map_rows = 1 if samp32.size < 2 * 32_000 else s * m_fr
     vals32 = cv2.remap(img, samp32.reshape(map_rows, -1, 2), None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload, unused-ignore]
-    vals = vals32.reshape(s * m_fr, n_o).astype(np.float64)
-    vals -= level
-    above = vals > 0
-    change = above[:, 1:] != above[:, :-1]  # crossing between o and o+1
-    if quad is not None:  # the border's crossings only: bright outside, dark inside
-        change[st * m_fr :] &= _falls(above[st * m_fr :], np.repeat(_inward(normal[st:], offset[st:], quad), m_fr))
-    j = np.where(change, _REFINE_MID, np.inf).argmin(axis=1)
-    rows = np.arange(len(vals))
-    v0 = vals[rows, j]
-    den = v0 - vals[rows, j + 1]
-    step = den != 0
-    o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
-    valid = (change.any(axis=1) & wide.ravel()).reshape(s, -1)
-    o2 = o.reshape(s, -1)
-    px = base[0] + o2 * normal[:, 0, None]
-    py = base[1] + o2 * normal[:, 1, None]
-    w = valid.astype(np.float64)
-    cnt = w.sum(axis=1)
+    # the crossing of ``level`` nearest each side on each row of samples across it (a
+    # data-area side's only the border's way: bright outside, dark inside)
+    inward = _NONE_INWARD
+    if quad is not None:
+        inward = np.empty(s - st, dtype=np.uint8)
+        inward_sides(
+            normal[st:],
+            np.ascontiguousarray(offset[st:], dtype=np.float64),
+            np.ascontiguousarray(quad, dtype=np.float64),
+            inward,
+        )
+    px, py = np.empty((s, m_fr)), np.empty((s, m_fr))
+    valid8 = np.empty((s, m_fr), dtype=np.uint8)
+    level_crossings(
+        np.asarray(vals32, dtype=np.float32).reshape(s * m_fr, n_o), level, st, inward, _REFINE_OFFS, _REFINE_MID,
+        base_x, base_y, normal, wide, px, py, valid8,
+    )  # fmt: skip
+    valid = valid8.view(bool)
+    # the least-squares line of each side's crossings (compiled: the sums as numpy adds them)
+    mx, my, sxx, sxy, syy, cnt = (np.empty(s) for _ in range(6))
+    crossing_moments(px, py, valid8, mx, my, sxx, sxy, syy, cnt)
     good = (cnt >= 3) & finite
-    n2, c2 = _fit_samples(px, py, w, cnt)
+    n2, c2 = lines_from_moments(mx, my, sxx, sxy, syy)
     if quad is not None:  # the data-area sides again, without crossings at a triangle's edge
         qn, qc = n2[st:], c2[st:]
         res = np.abs(qn[:, 0, None] * px[st:] + qn[:, 1, None] * py[st:] - qc[:, None])  # (4, M)
         drop = valid[st:] & (width[st:] < _QUAD_NEAR_PX) & (res > _QUAD_OUTLIER_PX)
         if drop.any():
-            wq = np.where(drop, 0.0, w[st:])
+            wq = np.where(drop, 0.0, valid[st:].astype(np.float64))
             cq = wq.sum(axis=1)
             nq, cq_off = _fit_samples(px[st:], py[st:], wq, cq)
             redo = drop.any(axis=1) & (cq >= 3)

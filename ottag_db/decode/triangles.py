@@ -9,7 +9,7 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
-from ottag_native.triangles import fit_triangle
+from ottag_native.triangles import fit_triangle, triangle_faults
 
 from ottag_db.decode.types import Rejection
 
@@ -17,7 +17,6 @@ __all__ = ["TriangleFit", "bad_triangles", "off_triangle", "strict_chains", "tri
 
 _F64 = NDArray[np.float64]
 _NEXT3 = np.array([1, 2, 0])
-_NEXT4 = np.array([1, 2, 3, 0])
 
 
 @dataclass(frozen=True)
@@ -147,17 +146,6 @@ def off_triangle(pts: _F64, tri: _F64, tol_px: float) -> int:
     return int((dist2 > tol * tol).sum())
 
 
-def _same_triangle_mask(s: int) -> NDArray[np.bool_]:
-    t = np.arange(s) // 3
-    out: NDArray[np.bool_] = t[:, None] == t[None, :]
-    out.flags.writeable = False
-    return out
-
-
-#: ``(s, s)`` masks of side pairs of one triangle (sides 3t, 3t+1, 3t+2), for up to 16 triangles.
-_SAME_TRIANGLE: tuple[NDArray[np.bool_], ...] = tuple(_same_triangle_mask(s) for s in range(49))
-
-
 def bad_triangles(verts: _F64, quad: _F64, side: float) -> Rejection | None:
     """Why fitted triangles cannot be a tag's, or None if they can.
 
@@ -179,41 +167,19 @@ def bad_triangles(verts: _F64, quad: _F64, side: float) -> Rejection | None:
     Rejection or None
         A ``"non_triangle"`` rejection naming the fault.
     """
-    if not np.isfinite(verts).all():
-        return Rejection("non_triangle", "degenerate triangle")
-    v = verts.reshape(-1, 2)
-    # inside the data area: on the inner side of every quad side (convex, either orientation)
-    a = quad
-    d = quad[_NEXT4] - a
-    cross = d[None, :, 0] * (v[:, None, 1] - a[None, :, 1]) - d[None, :, 1] * (v[:, None, 0] - a[None, :, 0])
-    cross /= np.hypot(d[:, 0], d[:, 1])[None, :]
-    slack = 1.0 + 0.01 * side
-    if not ((cross >= -slack).all(axis=1).all() or (cross <= slack).all(axis=1).all()):
-        return Rejection("non_triangle", "triangle vertex outside the data area")
-    t = len(verts)
-    if t < 2:
-        return None
-    near = max(0.8, 0.008 * side)
-    sa = verts.reshape(-1, 2)  # side j of triangle i runs from vertex j to j + 1
-    sb = verts[:, _NEXT3].reshape(-1, 2)
-    sd = sb - sa
-    ln = np.maximum(np.hypot(sd[:, 0], sd[:, 1]), 1e-9)
-    # by coordinate (numpy broadcasts over a last axis of length 2 several times slower):
-    # unit direction (ux, uy) and normal (−uy, ux) of side i as columns
-    ux, uy = (sd[:, 0] / ln)[:, None], (sd[:, 1] / ln)[:, None]
-    nx = -uy
-    # side j against side i: both ends of j within ``near`` of side i's line, and their
-    # projections overlapping side i over a third of the shorter side
-    rax, ray = sa[None, :, 0] - sa[:, None, 0], sa[None, :, 1] - sa[:, None, 1]  # (S, S): j − i
-    rbx, rby = sb[None, :, 0] - sa[:, None, 0], sb[None, :, 1] - sa[:, None, 1]
-    off_a = np.abs(rax * nx + ray * ux)
-    off_b = np.abs(rbx * nx + rby * ux)
-    pa = rax * ux + ray * uy
-    pb = rbx * ux + rby * uy
-    overlap = np.minimum(np.maximum(pa, pb), ln[:, None]) - np.maximum(np.minimum(pa, pb), 0.0)
-    s = len(sa)
-    own = _SAME_TRIANGLE[s] if s < len(_SAME_TRIANGLE) else _same_triangle_mask(s)
-    shared = (off_a < near) & (off_b < near) & (overlap > np.minimum(ln[:, None], ln[None, :]) / 3) & ~own
-    if shared.any():
-        return Rejection("non_triangle", "two triangles share part of a side")
-    return None
+    # compiled (ottag_native.triangles), as numpy computed it: every vertex on the inner side
+    # of every quad side (convex, either orientation) within 1 + 1 % of the side; no side with
+    # both ends within max(0.8, 0.8 % of the side) of another triangle's side line whose
+    # projections overlap it over a third of the shorter side
+    fault = triangle_faults(
+        np.ascontiguousarray(verts, dtype=np.float64).reshape(-1, 2), np.ascontiguousarray(quad, dtype=np.float64), side
+    )
+    return None if fault == 0 else Rejection("non_triangle", _TRIANGLE_FAULTS[fault])
+
+
+#: The details of :func:`bad_triangles`'s rejections, by the kernel's fault code.
+_TRIANGLE_FAULTS = {
+    1: "degenerate triangle",
+    2: "triangle vertex outside the data area",
+    3: "two triangles share part of a side",
+}

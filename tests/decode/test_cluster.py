@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ottag_db.decode.cluster import cluster_hypotheses, ls_point
+from ottag_db.decode.cluster import cluster_hypotheses
 from ottag_db.decode.refine import fit_chains, triangle_vertices
 from ottag_db.decode.types import TriangleLines
 
@@ -13,14 +13,6 @@ def _lines(*tris: np.ndarray) -> TriangleLines:
     chains = [np.linspace(t[j], t[(j + 1) % 3], 10)[1:-1] for t in tris for j in range(3)]
     normal, offset = fit_chains(chains)
     return TriangleLines(normal, offset, triangle_vertices(normal, offset))
-
-
-def test_ls_point() -> None:
-    nl = [[1.0, 0.0], [0.0, 1.0], [2**-0.5, 2**-0.5]]
-    ol = [3.0, 4.0, 7 * 2**-0.5]
-    xy, res = ls_point(nl, ol, [0, 1, 2])
-    assert xy is not None and np.allclose(xy, (3.0, 4.0)) and res < 1e-9
-    assert ls_point(nl, ol, [0, 0]) == (None, float("inf"))
 
 
 def test_shared_vertex_is_one_point() -> None:
