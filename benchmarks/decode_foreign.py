@@ -1,6 +1,6 @@
 """Tags drawn by another program: the same point sets with other triangles, margins and quiet zone.
 
-Usage: python benchmarks/decode_foreign.py [--trials N] [--seed S] [--quiet]
+Usage: python benchmarks/decode_foreign.py [--trials N] [--seed S] [--quiet] [--params KEY=VALUE ...]
 
 An Order Type Tag's ID is the order type of its points, so a tag drawn by any program — other
 triangles on the same points, another margin, another quiet zone — is the same tag. This script
@@ -27,7 +27,8 @@ paper's decision, ``decode --no-verify``). Printed per row: reads of the trials,
 inverted, wrong IDs (verified / no-verify), and the most frequent rejection of a tag not read. The decoder design's
 target (issue 37): ≥ 95 % of both sweeps read with verification, zero wrong IDs.
 ``--without-drawn`` reads the same frames with a lookup that lacks the 24 drawn order types:
-every detection is then a look-alike.
+every detection is then a look-alike. ``--params KEY=VALUE ...`` reads them with other settings
+of our decoder (``benchmarks/settings.py``; the second column with ``verify`` off as well).
 """
 
 from __future__ import annotations
@@ -36,16 +37,18 @@ import argparse
 import sys
 import tempfile
 from collections import Counter
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 from decode_speed import bundled_tags, drawable  # the benchmark next door
 from numpy.typing import NDArray
+from settings import add_params_argument, describe, params_from  # the benchmarks' settings
 
 from ottag_db.core.lookup import MemoryLookup
 from ottag_db.core.types import Polarity
-from ottag_db.decode import Detector, DetectorParams
+from ottag_db.decode import DEFAULT_PARAMS, Detector, DetectorParams
 from ottag_db.printing import scenes
 
 SIZE = 0.21  # m, the data area
@@ -258,7 +261,9 @@ def _print(label: str, row: Row) -> None:
     print(f"  {label:<12} {cells[0]:>11}   {cells[1]:>11}   {wrong:>7}   {reason}")
 
 
-def main(trials: int, seed: int, quiet: bool, without_drawn: bool = False) -> None:
+def main(
+    trials: int, seed: int, quiet: bool, without_drawn: bool = False, params: DetectorParams = DEFAULT_PARAMS
+) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         lookup, records = bundled_tags(Path(tmp))
     k8 = sorted((r for r in records if r.k == 8), key=lambda r: -r.mp)
@@ -267,7 +272,8 @@ def main(trials: int, seed: int, quiet: bool, without_drawn: bool = False) -> No
         drawn = {t.lambda_text for t in tags}
         lookup = MemoryLookup(e for e in lookup if e.lambda_text not in drawn)
         print("lookup without the 24 drawn order types: every detection is a look-alike (wrong)")
-    detectors = {"verified": Detector(lookup), "order_type": Detector(lookup, DetectorParams(verify=False))}
+    print(f"our settings: {describe(params)}")
+    detectors = {"verified": Detector(lookup, params), "order_type": Detector(lookup, replace(params, verify=False))}
     rng = np.random.default_rng(seed)
     columns = ("", "verified", "no-verify", "wrong", "most frequent refusal")
     header = "  {:<12} {:>11}   {:>11}   {:>7}   {}".format(*columns)
@@ -308,5 +314,6 @@ if __name__ == "__main__":
     ap.add_argument("--seed", type=int, default=2, help="scenes seed (the decision was set on seed 1) [2]")
     ap.add_argument("--without-drawn", action="store_true", help="a lookup without the drawn order types")
     ap.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
+    add_params_argument(ap)
     args = ap.parse_args()
-    main(args.trials, args.seed, args.quiet, args.without_drawn)
+    main(args.trials, args.seed, args.quiet, args.without_drawn, params_from(args.params, ap))
