@@ -151,11 +151,12 @@ def settings_rows(lookup: MemoryLookup, photos: Sequence[_U8], aruco: list[float
     without either: mean and slowest ms, each against ArUco's, and the time of each candidate
     pass (one more run)."""
     small = MemoryLookup(sorted((e for e in lookup if e.k == 8), key=lambda e: e.lambda_text)[:SMALL_LOOKUP])
-    for label, det in (
-        (f"a lookup of {len(small)} order types", Detector(small)),
-        ("no reading by model", Detector(lookup, DetectorParams(model_match=False))),
-        ("no last-resort passes", Detector(lookup, DetectorParams(last_resort_passes=False))),
-        ("neither", Detector(lookup, DetectorParams(last_resort_passes=False, model_match=False))),
+    # (label, detector, whether its passes' OpenCV floor is printed: where the passes differ)
+    for label, det, floor in (
+        (f"a lookup of {len(small)} order types", Detector(small), False),
+        ("no reading by model", Detector(lookup, DetectorParams(model_match=False)), False),
+        ("no last-resort passes", Detector(lookup, DetectorParams(last_resort_passes=False)), True),
+        ("neither", Detector(lookup, DetectorParams(last_resort_passes=False, model_match=False)), False),
     ):
         det.detect(photos[0])
         times, count = frame_times(functools.partial(_detections, det), photos, passes)
@@ -164,7 +165,7 @@ def settings_rows(lookup: MemoryLookup, photos: Sequence[_U8], aruco: list[float
             f" slowest {max(times):6.2f} ms ({max(times) / max(aruco):.1f}× ArUco's slowest), detections: {count}"
         )
         print(f"    its candidate passes, ms/frame: {stage_means(det, photos)[1]}")
-        if label == "no last-resort passes":
+        if floor:
             opencv_floor(det, photos, aruco, passes)
 
 

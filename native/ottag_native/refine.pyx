@@ -97,7 +97,15 @@ def sample_grid(
     """
     cdef Py_ssize_t s = a.shape[0], m = fractions.shape[0], n_o = offsets.shape[0]
     cdef Py_ssize_t i, k, t, o
-    cdef double bx, by, dx, dy, ln2, rx, ry, u, gap, least, widest, limit, nx, ny
+    cdef double bx, by, dx, dy, rx, ry, u, gap, least, widest, limit, nx, ny
+    # each triangle side's squared length, at least 1e-12 (np.maximum: a NaN stays NaN), once
+    cdef double* ln2 = <double*>malloc((st if st > 0 else 1) * sizeof(double))
+    if ln2 == NULL:
+        raise MemoryError()
+    for t in range(st):
+        ln2[t] = sd[t, 0] * sd[t, 0] + sd[t, 1] * sd[t, 1]
+        if ln2[t] < 1e-12:
+            ln2[t] = 1e-12
     for i in range(s):
         for k in range(m):
             base_x[i, k] = a[i, 0] + fractions[k] * sd[i, 0]
@@ -112,12 +120,9 @@ def sample_grid(
                     continue
                 dx = sd[t, 0]
                 dy = sd[t, 1]
-                ln2 = dx * dx + dy * dy
-                if not ln2 >= 1e-12:  # (np.maximum(ln2, 1e-12); a NaN stays NaN)
-                    ln2 = ln2 if ln2 != ln2 else 1e-12
                 rx = bx - a[t, 0]
                 ry = by - a[t, 1]
-                u = (rx * dx + ry * dy) / ln2
+                u = (rx * dx + ry * dy) / ln2[t]
                 if u < 0.0:  # (np.clip(u, 0, 1))
                     u = 0.0
                 elif u > 1.0:
@@ -146,6 +151,7 @@ def sample_grid(
             for o in range(n_o):
                 grid[i, k, o, 0] = <float>(base_x[i, k] + offsets[o] * nx)
                 grid[i, k, o, 1] = <float>(base_y[i, k] + offsets[o] * ny)
+    free(ln2)
 
 
 def level_crossings(
@@ -186,8 +192,8 @@ def level_crossings(
         As :func:`sample_grid` gave them.
     px, py : memoryview of float64
         ``(S, M)`` out: the crossing (linearly interpolated between its two offsets; halfway
-        where they hold the same level), or the sample at the first offset's crossing of no
-        change when there is none.
+        where they hold the same level); where there is none, a point between the first two
+        offsets, which ``valid`` marks as not found.
     valid : memoryview of uint8
         ``(S, M)`` out: 1 where a crossing was found on a wide sample.
     """

@@ -6,8 +6,8 @@ and list comprehensions over the hull; this computes the same values in the same
 (double precision, no fused multiply-adds: built with ``-ffp-contract=off``).
 """
 
-from cython.view cimport array as cvarray
 from libc.math cimport INFINITY as INF, atan2, cos, fabs, hypot, sin
+from libc.stdlib cimport free, malloc
 
 
 cdef double _far(const double[:, ::1] flat, const int[::1] hull, int p0, int p1, int k) noexcept nogil:
@@ -195,7 +195,11 @@ def triangle_faults(const double[:, ::1] verts, const double[:, ::1] quad, doubl
     cdef double dx, dy, cross, norm, ln_i, ln_j, shorter
     cdef double rax, ray, rbx, rby, off_a, off_b, pa, pb, hi, lo, overlap
     cdef bint inner_left = True, inner_right = True
-    cdef double[::1] ux, uy, ln, bx, by
+    cdef double* ux
+    cdef double* uy
+    cdef double* ln
+    cdef double* bx
+    cdef double* by
     if s % 3:
         raise ValueError(f"triangles of 3 vertices, not {s} vertices")
     for i in range(s):
@@ -217,41 +221,47 @@ def triangle_faults(const double[:, ::1] verts, const double[:, ::1] quad, doubl
         return 0
     if near < 0.8:
         near = 0.8
-    ux, uy, ln, bx, by = (cvarray((s,), sizeof(double), "d") for _ in range(5))
-    for i in range(s):
-        base = i - i % 3
-        bx[i] = verts[base + (i % 3 + 1) % 3, 0]
-        by[i] = verts[base + (i % 3 + 1) % 3, 1]
-        dx = bx[i] - verts[i, 0]
-        dy = by[i] - verts[i, 1]
-        ln[i] = hypot(dx, dy)
-        if not ln[i] >= 1e-9:
-            ln[i] = 1e-9
-        ux[i] = dx / ln[i]
-        uy[i] = dy / ln[i]
-    for i in range(s):
-        for j in range(s):
-            if i // 3 == j // 3:
-                continue
-            rax = verts[j, 0] - verts[i, 0]
-            ray = verts[j, 1] - verts[i, 1]
-            rbx = bx[j] - verts[i, 0]
-            rby = by[j] - verts[i, 1]
-            off_a = fabs(rax * -uy[i] + ray * ux[i])
-            off_b = fabs(rbx * -uy[i] + rby * ux[i])
-            if not (off_a < near and off_b < near):
-                continue
-            pa = rax * ux[i] + ray * uy[i]
-            pb = rbx * ux[i] + rby * uy[i]
-            hi = pa if pa >= pb else pb
-            if hi > ln[i]:
-                hi = ln[i]
-            lo = pa if pa <= pb else pb
-            if lo < 0.0:
-                lo = 0.0
-            overlap = hi - lo
-            ln_j = ln[j]
-            shorter = ln[i] if ln[i] <= ln_j else ln_j
-            if overlap > shorter / 3:
-                return 3
-    return 0
+    ux = <double*>malloc(5 * s * sizeof(double))
+    if ux == NULL:
+        raise MemoryError()
+    uy, ln, bx, by = ux + s, ux + 2 * s, ux + 3 * s, ux + 4 * s
+    try:
+        for i in range(s):
+            base = i - i % 3
+            bx[i] = verts[base + (i % 3 + 1) % 3, 0]
+            by[i] = verts[base + (i % 3 + 1) % 3, 1]
+            dx = bx[i] - verts[i, 0]
+            dy = by[i] - verts[i, 1]
+            ln[i] = hypot(dx, dy)
+            if not ln[i] >= 1e-9:
+                ln[i] = 1e-9
+            ux[i] = dx / ln[i]
+            uy[i] = dy / ln[i]
+        for i in range(s):
+            for j in range(s):
+                if i // 3 == j // 3:
+                    continue
+                rax = verts[j, 0] - verts[i, 0]
+                ray = verts[j, 1] - verts[i, 1]
+                rbx = bx[j] - verts[i, 0]
+                rby = by[j] - verts[i, 1]
+                off_a = fabs(rax * -uy[i] + ray * ux[i])
+                off_b = fabs(rbx * -uy[i] + rby * ux[i])
+                if not (off_a < near and off_b < near):
+                    continue
+                pa = rax * ux[i] + ray * uy[i]
+                pb = rbx * ux[i] + rby * uy[i]
+                hi = pa if pa >= pb else pb
+                if hi > ln[i]:
+                    hi = ln[i]
+                lo = pa if pa <= pb else pb
+                if lo < 0.0:
+                    lo = 0.0
+                overlap = hi - lo
+                ln_j = ln[j]
+                shorter = ln[i] if ln[i] <= ln_j else ln_j
+                if overlap > shorter / 3:
+                    return 3
+        return 0
+    finally:
+        free(ux)
