@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import tempfile
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator, Sequence
@@ -47,7 +46,7 @@ from ottag_db.decode import Detector, DetectorParams
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from decode_many import make_frames  # the benchmarks next door
 from decode_photos import photographs
-from decode_speed import bundled_tags, make_scenes
+from decode_speed import make_scenes
 from peers import PEERS, PeerReader
 from settings import add_params_argument, describe, params_from
 
@@ -132,16 +131,17 @@ class FrameSet:
 
 def frame_sets(frames: int, params: DetectorParams) -> list[FrameSet]:
     """The three sets, each with a detector of its benchmark's lookup and ``params``."""
+    # (the one-tag frames and the photographs are read with the same lookup, decode_photos.py's)
     lookup, ours, peer_frames = make_scenes(frames)
-    sets = [FrameSet("one tag", ours, peer_frames, Detector(lookup, params))]
+    bundled = Detector(lookup, params)
     boards = max(1, math.ceil(frames / 25))  # 20 tags a frame: a few boards
-    lookup, scenes, board_frames, _ = make_frames(boards)
-    sets.append(FrameSet("20 tags", [s.image for s in scenes], board_frames, Detector(lookup, params)))
-    with tempfile.TemporaryDirectory() as tmp:
-        lookup, _records = bundled_tags(Path(tmp))
+    board_lookup, scenes, board_frames, _ = make_frames(boards)
     photos = [frame for _, frame in photographs()]
-    sets.append(FrameSet("photographs", photos, dict.fromkeys(PEERS, photos), Detector(lookup, params)))
-    return sets
+    return [
+        FrameSet("one tag", ours, peer_frames, bundled),
+        FrameSet("20 tags", [s.image for s in scenes], board_frames, Detector(board_lookup, params)),
+        FrameSet("photographs", photos, dict.fromkeys(PEERS, photos), bundled),
+    ]
 
 
 def _mean_ms(run: Callable[[_U8], object], frames: Sequence[_U8]) -> float:

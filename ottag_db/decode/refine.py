@@ -216,15 +216,15 @@ _QUAD_NEAR_PX = 5.0
 _QUAD_OUTLIER_PX = 1.0
 
 
-def _fit_samples(px: _F64, py: _F64, w: _F64, cnt: _F64) -> tuple[_F64, _F64]:
-    """Weighted least-squares lines of the ``(S, M)`` points ``(px, py)``, ``cnt = w.sum(axis=1)``."""
-    cnt_safe = np.maximum(cnt, 1)
-    mx_ = (w * px).sum(axis=1) / cnt_safe
-    my_ = (w * py).sum(axis=1) / cnt_safe
-    qx = px - mx_[:, None]
-    qy = py - my_[:, None]
-    wdx = w * qx
-    return lines_from_moments(mx_, my_, (wdx * qx).sum(axis=1), (wdx * qy).sum(axis=1), (w * qy * qy).sum(axis=1))
+def _fitted_lines(px: _F64, py: _F64, valid: NDArray[np.uint8]) -> tuple[_F64, _F64, _F64]:
+    """The least-squares line of each row's valid points of ``(S, M)`` (``M`` ≤ 128) and how
+    many there were: normals ``(S, 2)``, offsets and counts ``(S,)`` (compiled: the sums as
+    numpy adds them)."""
+    rows = len(px)
+    mx, my, sxx, sxy, syy, count = (np.empty(rows) for _ in range(6))
+    crossing_moments(px, py, valid, mx, my, sxx, sxy, syy, count)
+    normal, offset = lines_from_moments(mx, my, sxx, sxy, syy)
+    return normal, offset, count
 
 
 def refine_lines(
@@ -311,19 +311,15 @@ def refine_lines(
         base_x, base_y, normal, wide, px, py, valid8,
     )  # fmt: skip
     valid = valid8.view(bool)
-    # the least-squares line of each side's crossings (compiled: the sums as numpy adds them)
-    mx, my, sxx, sxy, syy, cnt = (np.empty(s) for _ in range(6))
-    crossing_moments(px, py, valid8, mx, my, sxx, sxy, syy, cnt)
+    n2, c2, cnt = _fitted_lines(px, py, valid8)
     good = (cnt >= 3) & finite
-    n2, c2 = lines_from_moments(mx, my, sxx, sxy, syy)
     if quad is not None:  # the data-area sides again, without crossings at a triangle's edge
         qn, qc = n2[st:], c2[st:]
         res = np.abs(qn[:, 0, None] * px[st:] + qn[:, 1, None] * py[st:] - qc[:, None])  # (4, M)
         drop = valid[st:] & (width[st:] < _QUAD_NEAR_PX) & (res > _QUAD_OUTLIER_PX)
         if drop.any():
-            wq = np.where(drop, 0.0, valid[st:].astype(np.float64))
-            cq = wq.sum(axis=1)
-            nq, cq_off = _fit_samples(px[st:], py[st:], wq, cq)
+            kept = (valid[st:] & ~drop).view(np.uint8)
+            nq, cq_off, cq = _fitted_lines(px[st:], py[st:], kept)
             redo = drop.any(axis=1) & (cq >= 3)
             n2[st:] = np.where(redo[:, None], nq, qn)
             c2[st:] = np.where(redo, cq_off, qc)
@@ -371,7 +367,7 @@ def _consensus(x: _F64, y: _F64) -> tuple[_F64, float] | None:
     if count[best] < _CONSENSUS_MIN:
         return None
     keep = inside[best]
-    n, c = _fit_samples(x[keep][None, :], y[keep][None, :], np.ones((1, int(keep.sum()))), np.array([keep.sum()]))
+    n, c, _ = _fitted_lines(x[keep][None, :], y[keep][None, :], np.ones((1, int(keep.sum())), dtype=np.uint8))
     return n[0], float(c[0])
 
 
@@ -424,20 +420,20 @@ def _recentre_quad_sides(
         e0, e1 = (p - (n @ p - c) * n for p in (a[q], b[q]))
         base = e0[None, :] + _REFINE_FR[:, None] * (e1 - e0)[None, :]  # (M, 2)
         grid = (base[:, None, :] + offs[None, :, None] * n[None, None, :]).astype(np.float32)
-        vals = cv2.remap(img, grid, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE).astype(np.float64)  # type: ignore[call-overload, unused-ignore]
-        vals -= level
-        above = vals > 0
-        inward = np.repeat(_inward(n[None], np.array([c]), quad), len(base))
-        change = (above[:, 1:] != above[:, :-1]) & _falls(above, inward)
-        j = np.where(change, np.abs(0.5 * (offs[1:] + offs[:-1])), np.inf).argmin(axis=1)
-        rows = np.arange(len(vals))
-        v0 = vals[rows, j]
-        den = v0 - vals[rows, j + 1]
-        step = den != 0
-        o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
-        found = change.any(axis=1)
-        pts = base[found] + o[found, None] * n[None, :]
-        again = _consensus(pts[:, 0], pts[:, 1])
+        vals = cv2.remap(img, grid, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[call-overload, unused-ignore]
+        # the border's crossings as refine_lines finds them: one data-area side (st = 0)
+        side = np.ascontiguousarray(n, dtype=np.float64)[None, :]
+        inward = np.empty(1, dtype=np.uint8)
+        inward_sides(side, np.array([c], dtype=np.float64), np.ascontiguousarray(quad, dtype=np.float64), inward)
+        m = len(base)
+        bx, by = np.ascontiguousarray(base[:, 0])[None, :], np.ascontiguousarray(base[:, 1])[None, :]
+        cx, cy, found = np.empty((1, m)), np.empty((1, m)), np.empty((1, m), dtype=np.uint8)
+        level_crossings(
+            np.asarray(vals, dtype=np.float32), level, 0, inward, offs, np.abs(0.5 * (offs[1:] + offs[:-1])),
+            bx, by, side, np.ones((1, m), dtype=np.uint8), cx, cy, found,
+        )  # fmt: skip
+        kept = found[0].view(bool)
+        again = _consensus(cx[0][kept], cy[0][kept])
         if again is None:
             continue
         nf, cf = again
@@ -445,21 +441,3 @@ def _recentre_quad_sides(
         normal[q], offset[q] = sign * nf, sign * cf
         redone[q] = True
     return redone
-
-
-def _inward(normal: _F64, offset: _F64, quad: _F64) -> NDArray[np.bool_]:
-    """Whether each line's normal points into the quad (towards its centre)."""
-    centre = quad.mean(axis=0)
-    out: NDArray[np.bool_] = normal @ centre - offset > 0
-    return out
-
-
-def _falls(above: NDArray[np.bool_], inward: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """``(R, O - 1)``: where a row of samples along a data-area side's normal crosses the border's
-    way — from the bright quiet zone into the dark data area (triangles bright, ``img`` of
-    :func:`refine`): falling along the normal when it points inward (``inward`` per row),
-    rising when it points out. A triangle's edge near the border, crossed from the dark strip
-    between them into the bright triangle, goes the other way."""
-    fall = above[:, :-1] & ~above[:, 1:]
-    out: NDArray[np.bool_] = fall == inward[:, None]
-    return out

@@ -3,7 +3,8 @@ gives, bit for bit: the chain moments of :func:`~ottag_db.decode.refine.fit_chai
 2 to 400 points, and the sample grid, level crossings, crossing moments and inward sides of
 :func:`~ottag_db.decode.refine.refine_lines` (both ``ottag_native.refine``) on random triangles
 (touching ones and a side of zero length among them), with and without a data area around them,
-on blurred grey levels; Otsu's split of :func:`~ottag_db.decode.image.otsu`
+on blurred grey levels, and the crossings of one data-area side searched again over the first
+search's offsets or the wide ones; Otsu's split of :func:`~ottag_db.decode.image.otsu`
 (``ottag_native.histogram``) on histograms of two classes and of one grey level; the checks of
 :func:`~ottag_db.decode.triangles.bad_triangles` (``ottag_native.triangles``) on triangles that
 share part of a side, leave the data area, or are degenerate.
@@ -28,6 +29,32 @@ from ottag_db.decode.image import otsu
 from ottag_db.decode.triangles import bad_triangles
 
 _F64 = NDArray[np.float64]
+
+
+def _inward(normal: _F64, offset: _F64, quad: _F64) -> NDArray[np.bool_]:
+    """Whether each line's normal points into the quad (towards its centre), as numpy computed it."""
+    out: NDArray[np.bool_] = normal @ quad.mean(axis=0) - offset > 0
+    return out
+
+
+def _falls(above: NDArray[np.bool_], inward: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """``(R, O - 1)``: where a row crosses the border's way (falling along the normal when it
+    points inward, rising when it points out), as numpy computed it."""
+    out: NDArray[np.bool_] = (above[:, :-1] & ~above[:, 1:]) == inward[:, None]
+    return out
+
+
+def _fit_samples(px: _F64, py: _F64, w: _F64, cnt: _F64) -> tuple[_F64, _F64]:
+    """Weighted least-squares lines of the ``(S, M)`` points, ``cnt = w.sum(axis=1)``, as numpy computed them."""
+    cnt_safe = np.maximum(cnt, 1)
+    mx_ = (w * px).sum(axis=1) / cnt_safe
+    my_ = (w * py).sum(axis=1) / cnt_safe
+    qx = px - mx_[:, None]
+    qy = py - my_[:, None]
+    wdx = w * qx
+    return refine.lines_from_moments(
+        mx_, my_, (wdx * qx).sum(axis=1), (wdx * qy).sum(axis=1), (w * qy * qy).sum(axis=1)
+    )
 
 
 def _grid_numpy(a: _F64, sd: _F64, normal: _F64, st_: int) -> tuple[Any, ...]:
@@ -70,7 +97,7 @@ def _crossings_numpy(
     above = vals > 0
     change = above[:, 1:] != above[:, :-1]
     if inward is not None:
-        change[st_ * m_fr :] &= refine._falls(above[st_ * m_fr :], np.repeat(inward, m_fr))
+        change[st_ * m_fr :] &= _falls(above[st_ * m_fr :], np.repeat(inward, m_fr))
     j = np.where(change, refine._REFINE_MID, np.inf).argmin(axis=1)
     rows = np.arange(len(vals))
     v0 = vals[rows, j]
@@ -130,7 +157,7 @@ def test_the_kernels_compute_what_numpy_computed(seed: int, triangles: int, with
     vals32 = np.asarray(vals32, dtype=np.float32).reshape(len(a) * len(refine._REFINE_FR), -1)
     vals32[::7, 3] = np.float32(level)  # a sample exactly at the level: no crossing of it there
     offset = (normal * a).sum(axis=1)  # the lines through the sides' first ends
-    inward = None if quad is None else refine._inward(normal[st_:], offset[st_:], quad)
+    inward = None if quad is None else _inward(normal[st_:], offset[st_:], quad)
     want = _crossings_numpy(vals32, level, st_, inward, (expected[0], expected[1]), normal, expected[3])
     s, m_fr = expected[3].shape
     px, py = np.empty((s, m_fr)), np.empty((s, m_fr))
@@ -155,9 +182,8 @@ def test_the_moments_and_the_inward_sides_are_numpys(seed: int, rows: int, scale
     ottag_native.refine.crossing_moments(px, py, valid.view(np.uint8), *got)
     w = valid.astype(np.float64)
     assert np.array_equal(got[5], w.sum(axis=1))
-    # the lines of the moments are those of the numpy fit (``_fit_samples``, which still fits a
-    # data-area side again without some crossings), bit for bit
-    want = refine._fit_samples(px, py, w, w.sum(axis=1))
+    # the lines of the moments are those of the numpy fit, bit for bit
+    want = _fit_samples(px, py, w, w.sum(axis=1))
     lines = refine.lines_from_moments(*got[:5])
     assert np.array_equal(want[0], lines[0]) and np.array_equal(want[1], lines[1]), "the moments differ from numpy's"
     quad = np.array([[0.0, 0.0], [60.0, 0.0], [60.0, 60.0], [0.0, 60.0]]) * scale / 100 + rng.normal(0, 1, (4, 2))
@@ -166,7 +192,50 @@ def test_the_moments_and_the_inward_sides_are_numpys(seed: int, rows: int, scale
     offset = (normal * quad[rng.integers(0, 4, rows)]).sum(axis=1)  # lines through the corners
     inward = np.empty(rows, dtype=np.uint8)
     ottag_native.refine.inward_sides(normal, offset, quad, inward)
-    assert np.array_equal(refine._inward(normal, offset, quad), inward.view(bool))
+    assert np.array_equal(_inward(normal, offset, quad), inward.view(bool))
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), wide_search=st.booleans(), level=st.floats(20, 230))
+def test_a_data_area_side_searched_again_crosses_as_numpy_found(seed: int, wide_search: bool, level: float) -> None:
+    # refine._recentre_quad_sides: one data-area side (st = 0), its crossings over the first
+    # search's offsets or the wide ones, as numpy found them
+    rng = np.random.default_rng(seed)
+    offs = refine._WIDE_OFFS if wide_search else refine._REFINE_OFFS
+    m = len(refine._REFINE_FR)
+    ramp = np.clip((offs[None, :] + rng.normal(0, 2, (m, 1))) * rng.uniform(-60, 60), -120, 120) + 128
+    vals32 = np.asarray(ramp + rng.normal(0, 3, ramp.shape), dtype=np.float32)
+    vals32[::5, 4] = np.float32(level)  # a sample exactly at the level
+    quad = np.array([[0.0, 0.0], [60.0, 0.0], [60.0, 60.0], [0.0, 60.0]]) + rng.normal(0, 2, (4, 2))
+    n = rng.normal(size=2)
+    n /= np.hypot(n[0], n[1])
+    c = float(n @ quad[int(rng.integers(0, 4))])
+    base = rng.uniform(0, 60, (m, 2))
+    # numpy, as the side was searched again before the kernel
+    vals = vals32.astype(np.float64) - level
+    above = vals > 0
+    inward = np.repeat(_inward(n[None], np.array([c]), quad), m)
+    change = (above[:, 1:] != above[:, :-1]) & _falls(above, inward)
+    j = np.where(change, np.abs(0.5 * (offs[1:] + offs[:-1])), np.inf).argmin(axis=1)
+    rows = np.arange(m)
+    v0 = vals[rows, j]
+    den = v0 - vals[rows, j + 1]
+    step = den != 0
+    o = offs[j] + np.where(step, v0 / np.where(step, den, 1.0), 0.5) * (offs[1] - offs[0])
+    found = change.any(axis=1)
+    want = base[found] + o[found, None] * n[None, :]
+    # the kernel, as refine._recentre_quad_sides calls it
+    got_in = np.empty(1, dtype=np.uint8)
+    ottag_native.refine.inward_sides(n[None], np.array([c]), quad, got_in)
+    px, py, valid = np.empty((1, m)), np.empty((1, m)), np.empty((1, m), dtype=np.uint8)
+    ottag_native.refine.level_crossings(
+        vals32, level, 0, got_in, offs, np.abs(0.5 * (offs[1:] + offs[:-1])),
+        np.ascontiguousarray(base[:, 0])[None, :], np.ascontiguousarray(base[:, 1])[None, :], n[None],
+        np.ones((1, m), dtype=np.uint8), px, py, valid,
+    )  # fmt: skip
+    kept = valid[0].view(bool)
+    assert np.array_equal(kept, found), "the found crossings differ from numpy's"
+    assert np.array_equal(px[0][kept], want[:, 0]) and np.array_equal(py[0][kept], want[:, 1])
 
 
 def _otsu_numpy(hist: NDArray[Any]) -> tuple[int, float, float] | None:
